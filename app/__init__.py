@@ -1,0 +1,1 @@
+"""homebot's application layer: the command line, the server and its robot pipeline."""

@@ -1,0 +1,80 @@
+"""SE(2) geometry: poses as ``(x, y, theta)`` in metres and radians (REP-103).
+
+Every function accepts one pose of shape ``(3,)`` or a stack of poses of shape
+``(..., 3)`` and broadcasts like numpy. ``compose(a, b)`` is ``a ⊕ b``: the pose
+``b`` (expressed in the frame of ``a``) moved into the frame ``a`` lives in.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from slam_core.jit import njit
+
+
+def wrap_angle(theta):
+    """Wrap angles to the half-open interval ``[-pi, pi)``."""
+    return (np.asarray(theta, dtype=float) + np.pi) % (2.0 * np.pi) - np.pi
+
+
+def compose(a, b):
+    """Return ``a ⊕ b`` for poses (or stacks of poses) ``a`` and ``b``."""
+    a = np.asarray(a, dtype=float)
+    b = np.asarray(b, dtype=float)
+    c, s = np.cos(a[..., 2]), np.sin(a[..., 2])
+    x = a[..., 0] + c * b[..., 0] - s * b[..., 1]
+    y = a[..., 1] + s * b[..., 0] + c * b[..., 1]
+    return np.stack([x, y, wrap_angle(a[..., 2] + b[..., 2])], axis=-1)
+
+
+def inverse(a):
+    """Return ``a⁻¹`` so that ``compose(a, inverse(a))`` is the identity."""
+    a = np.asarray(a, dtype=float)
+    c, s = np.cos(a[..., 2]), np.sin(a[..., 2])
+    x = -c * a[..., 0] - s * a[..., 1]
+    y = s * a[..., 0] - c * a[..., 1]
+    return np.stack([x, y, wrap_angle(-a[..., 2])], axis=-1)
+
+
+def relative(a, b):
+    """Return ``a⁻¹ ⊕ b``: pose ``b`` expressed in the frame of pose ``a``."""
+    return compose(inverse(a), b)
+
+
+def transform_points(pose, points):
+    """Move points of shape ``(n, 2)`` from the frame of ``pose`` to its parent frame."""
+    pose = np.asarray(pose, dtype=float)
+    points = np.asarray(points, dtype=float)
+    c, s = np.cos(pose[2]), np.sin(pose[2])
+    out = np.empty_like(points)
+    out[:, 0] = pose[0] + c * points[:, 0] - s * points[:, 1]
+    out[:, 1] = pose[1] + s * points[:, 0] + c * points[:, 1]
+    return out
+
+
+def circular_mean(angles, weights=None):
+    """Weighted mean of angles on the circle."""
+    angles = np.asarray(angles, dtype=float)
+    w = np.ones_like(angles) if weights is None else np.asarray(weights, dtype=float)
+    return float(np.arctan2(np.sum(w * np.sin(angles)), np.sum(w * np.cos(angles))))
+
+
+def mean_pose(poses, weights=None):
+    """Weighted mean of poses: arithmetic for x and y, circular for the heading."""
+    poses = np.asarray(poses, dtype=float)
+    w = np.full(len(poses), 1.0 / len(poses)) if weights is None else np.asarray(weights, float)
+    w = w / w.sum()
+    return np.array([w @ poses[:, 0], w @ poses[:, 1], circular_mean(poses[:, 2], w)])
+
+
+@njit
+def wrap_scalar(theta):
+    """Compiled ``wrap_angle`` for one float."""
+    return (theta + np.pi) % (2.0 * np.pi) - np.pi
+
+
+@njit
+def compose_scalar(ax, ay, ath, bx, by, bth):
+    """Compiled ``compose`` for one pair of poses given by their components."""
+    c, s = np.cos(ath), np.sin(ath)
+    return ax + c * bx - s * by, ay + s * bx + c * by, wrap_scalar(ath + bth)
