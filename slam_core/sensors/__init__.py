@@ -1,0 +1,1 @@
+"""Sensor front ends: raw readings (encoder ticks, depth images) to odometry and scans."""
