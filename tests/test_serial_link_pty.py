@@ -226,3 +226,14 @@ def test_line_faults_validate_their_rates():
 def test_path_before_start_is_an_error(wheels):
     with pytest.raises(RuntimeError, match="start"):
         _ = VirtualMCU(wheels).path
+
+
+def test_grabber_waits_for_a_missing_device_and_refuses_bad_commands(tmp_path):
+    with OdometryGrabber(str(tmp_path / "ttyNONE"), reconnect_delay=0.01) as grabber:
+        assert not grabber.wait_connected(0.1)
+        assert not grabber.send_velocity(0.1, 0.0)
+        with pytest.raises(ValueError, match="finite"):
+            grabber.send_velocity(float("nan"), 0.0)
+        stats = grabber.stats()
+    assert (stats.connected, stats.connects, stats.commands_failed) == (False, 0, 1)
+    assert grabber.odometry.get() == (0, None)
