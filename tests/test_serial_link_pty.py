@@ -237,3 +237,33 @@ def test_grabber_waits_for_a_missing_device_and_refuses_bad_commands(tmp_path):
         stats = grabber.stats()
     assert (stats.connected, stats.connects, stats.commands_failed) == (False, 0, 1)
     assert grabber.odometry.get() == (0, None)
+
+
+class PickyWheels(ArcWheels):
+    """A wheel source that refuses fast commands and fails its first tick readings."""
+
+    failures = 3
+
+    def ticks(self) -> tuple[int, int]:
+        if self.failures:
+            self.failures -= 1
+            raise RuntimeError("encoder bus glitch")
+        return super().ticks()
+
+    def set_velocity(self, v: float, w: float) -> None:
+        if abs(v) > 1.0:
+            raise ValueError(f"v={v} too fast")
+        super().set_velocity(v, w)
+
+
+def test_a_refused_command_does_not_kill_the_mcu():
+    wheels = PickyWheels()
+    with VirtualMCU(wheels, clock=wheels.clock) as mcu, OdometryGrabber(mcu.path) as grabber:
+        assert grabber.wait_connected(WAIT)
+        assert grabber.send_velocity(5.0, 0.0)
+        wait_until(lambda: mcu.stats.commands_refused == 1, "the refusal")
+        assert grabber.send_velocity(0.5, 0.0)
+        wait_until(lambda: wheels.commands == [(0.5, 0.0)], "the next command")
+        seq = grabber.odometry.get()[0]
+        assert grabber.odometry.wait_newer(seq, WAIT) is not None  # still sending frames
+    assert mcu.stats.tick_errors == 3
