@@ -271,3 +271,12 @@ def test_decoder_never_raises_on_random_bytes(data, cuts):
     s = decoder.stats
     assert s.bytes_in == len(data) == s.bytes_in_frames + s.bytes_skipped + decoder.pending
     assert decoder.pending < 4 + MAX_PAYLOAD + 2
+
+
+def test_sequence_check_can_be_disabled_and_stats_snapshot_is_a_copy():
+    decoder = FrameDecoder(check_sequence=False)
+    frames = [EncoderFrame(s, 0, 0, 0) for s in (3, 3, 1)]
+    assert decoder.feed(b"".join(encode(f) for f in frames)) == frames
+    before = decoder.stats.snapshot()
+    decoder.feed(raw_frame(0x42, b""))
+    assert before.rejected["unknown_type"] == 0 and decoder.stats.rejected["unknown_type"] == 1
