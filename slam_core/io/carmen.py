@@ -215,6 +215,8 @@ class CarmenReader:
 
     def _laser(self, kind, fields, line_number) -> LaserRecord:
         n = self._count(fields, 1, line_number, f"{kind} beam count")
+        if len(fields) not in (n + 10, n + 11) or not _is_number(fields[n + 8]):
+            self._check_beam_count(kind, fields, n, line_number)
         ranges = self._numbers(fields, 2, n, line_number, f"{kind} ranges")
         poses = self._numbers(fields, 2 + n, 6, line_number, f"{kind} poses")
         stamp = self._stamp(fields, 8 + n, line_number, kind)
@@ -223,6 +225,19 @@ class CarmenReader:
             angles = self._angles[n] = flaser_angles(n)
         scan = Scan(angles, ranges, self.range_min, self.no_return, stamp.ipc_time)
         return LaserRecord(kind, scan, poses[:3], poses[3:], stamp)
+
+    def _check_beam_count(self, kind, fields, n, line_number) -> None:
+        """Name the problem of a laser line whose ranges do not line up with its beam count."""
+        host = next((i for i in range(2, len(fields)) if not _is_number(fields[i])), None)
+        if host is None:
+            raise LogFormatError(self.path, line_number,
+                                 f"{kind}: no 'ipc_timestamp hostname' after the {n} ranges and 6 pose "
+                                 f"numbers (missing timestamp? the line has {len(fields)} fields)")
+        found = host - 2 - 6 - 1
+        if found != n:
+            raise LogFormatError(self.path, line_number,
+                                 f"{kind}: the beam count says {n} ranges but the line has {found} "
+                                 f"(too {'few' if found < n else 'many'} ranges)")
 
     def _robotlaser(self, fields, line_number) -> LaserRecord:
         kind = "ROBOTLASER1"
@@ -243,6 +258,14 @@ class CarmenReader:
         values = self._numbers(fields, 1, 6, line_number, "ODOM")
         stamp = self._stamp(fields, 7, line_number, "ODOM")
         return OdomRecord(values[:3], float(values[3]), float(values[4]), stamp)
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
 
 
 def _decompressing(raw: BinaryIO, path: Path):
