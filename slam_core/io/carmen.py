@@ -102,7 +102,12 @@ def open_log(path) -> BinaryIO:
 
 
 def flaser_angles(n: int) -> np.ndarray:
-    """Beam bearings of an ``n``-beam FLASER line under the datasets' 180-degree convention."""
+    """Beam bearings of an ``n``-beam FLASER line under the datasets' 180-degree convention.
+
+    An odd count is symmetric about straight ahead, so a single beam points at 0.
+    """
+    if n == 1:
+        return np.zeros(1)
     step = math.pi / n if n % 2 == 0 else math.pi / (n - 1)
     return uniform_angles(n, -math.pi / 2, step)
 
