@@ -238,11 +238,15 @@ class CarmenReader:
             raise LogFormatError(self.path, line_number,
                                  f"{kind}: no 'ipc_timestamp hostname' after the {n} ranges and 6 pose "
                                  f"numbers (missing timestamp? the line has {len(fields)} fields)")
-        found = host - 2 - 6 - 1
-        if found != n:
+        numbers, expected = host - 2, n + 6 + 1
+        if numbers == expected - 1:
             raise LogFormatError(self.path, line_number,
-                                 f"{kind}: the beam count says {n} ranges but the line has {found} "
-                                 f"(too {'few' if found < n else 'many'} ranges)")
+                                 f"{kind}: {numbers} numbers before the hostname, one short of {n} ranges "
+                                 f"+ 6 pose numbers + ipc_timestamp (missing timestamp or too few ranges)")
+        if numbers != expected:
+            raise LogFormatError(self.path, line_number,
+                                 f"{kind}: the beam count says {n} ranges but the line has {numbers - 7} "
+                                 f"(too {'few' if numbers < expected else 'many'} ranges)")
 
     def _robotlaser(self, fields, line_number) -> LaserRecord:
         kind = "ROBOTLASER1"
