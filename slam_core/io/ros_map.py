@@ -99,8 +99,8 @@ def load_map(yaml_path) -> OccupancyGrid:
         p = pixels / 255.0 if meta.get("negate", 0) else (255.0 - pixels) / 255.0
         known = (p > occ_th) | (p < free_th) if mode == "trinary" else np.ones(p.shape, bool)
     data = np.zeros(pixels.shape, np.float32)
-    data[p > occ_th] = m.l_max
-    data[p < free_th] = m.l_min
+    data[known & (p > occ_th)] = m.l_max
+    data[known & (p < free_th)] = m.l_min
     if mode != "trinary":
         between = known & (p >= free_th) & (p <= occ_th)
         data[between] = logit(np.clip(p[between], 1e-3, 1 - 1e-3))
