@@ -2,24 +2,22 @@
 
 import bz2
 import gzip
-import math
 
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from slam_core.datasets import BUNDLED
 from slam_core.io.carmen import (
     CarmenReader,
     LaserRecord,
     LogFormatError,
-    OdomRecord,
     ParamRecord,
     TruncatedLogError,
     flaser_angles,
     laser_records,
 )
+from tests.bundled import read_bundled
 
 
 def write_log(path, text):
@@ -264,34 +262,23 @@ def test_random_flaser_lines_round_trip(tmp_path, ranges, poses, stamp, new_form
 
 # --- the bundled logs ------------------------------------------------------------------------
 
-def count_records(path):
-    reader = CarmenReader(path)
-    lasers, odoms, beams, backwards, prev = 0, 0, set(), 0, -math.inf
-    for rec in reader:
-        if isinstance(rec, LaserRecord):
-            lasers += 1
-            beams.add(len(rec.scan))
-            backwards += rec.stamp.ipc_time < prev
-            prev = rec.stamp.ipc_time
-            assert rec.kind == "FLASER"
-        elif isinstance(rec, OdomRecord):
-            odoms += 1
-        else:
-            assert isinstance(rec, ParamRecord)
-    return lasers, odoms, beams, backwards, reader.skipped
-
-
 def test_bundled_intel_log():
-    lasers, odoms, beams, backwards, skipped = count_records(BUNDLED["intel"][0])
-    assert (lasers, odoms, beams) == (13631, 26915, {180})
-    assert backwards == 631          # stepping back in time, kept in file order
-    assert not skipped
+    log = read_bundled("intel")
+    assert (len(log.lasers), len(log.odometry)) == (13631, 26915)
+    assert {len(r.scan) for r in log.lasers} == {180} and {r.kind for r in log.lasers} == {"FLASER"}
+    assert all(isinstance(r, ParamRecord) for r in log.others) and not log.skipped
+    times = np.array([r.stamp.ipc_time for r in log.lasers])
+    assert (np.diff(times) < 0).sum() == 631     # stepping back in time, kept in file order
+    lines = [r.stamp.line for r in log.lasers]
+    assert lines == sorted(lines)
 
 
 def test_bundled_mit_csail_log():
-    lasers, odoms, beams, _, _ = count_records(BUNDLED["mit-csail"][0])
-    assert (lasers, odoms, beams) == (1988, 0, {361})
-    first = next(laser_records(BUNDLED["mit-csail"][0]))
+    log = read_bundled("mit-csail")
+    assert (len(log.lasers), len(log.odometry)) == (1988, 0)
+    assert {len(r.scan) for r in log.lasers} == {361}
+    first = log.lasers[0]
     assert first.stamp.ipc_text == "1134864629.895182"
     assert first.odom.tolist() == [576.536523, 0.106594, -2.255213]
-    assert first.scan.range_max == 80.0 and (first.scan.ranges >= 81.9).any()
+    assert first.scan.range_max == 80.0
+    assert any((r.scan.ranges >= 81.9).any() for r in log.lasers[:50])

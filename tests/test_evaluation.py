@@ -16,17 +16,14 @@ from slam_core.evaluation import (
     relation_error,
 )
 from slam_core.geometry import compose, relative
-from slam_core.io.carmen import laser_records
 from slam_core.io.trajectory import Trajectory
 from tests import naive
+from tests.bundled import read_bundled
 
 
 def odometry_trajectory(name):
-    stamps, odom = [], []
-    for rec in laser_records(BUNDLED[name][0]):
-        stamps.append(rec.stamp.ipc_text)
-        odom.append(rec.odom)
-    return Trajectory(stamps, np.array(odom))
+    lasers = read_bundled(name).lasers
+    return Trajectory([r.stamp.ipc_text for r in lasers], np.array([r.odom for r in lasers]))
 
 
 # (mean m, std m, mean deg, std deg) as published for raw odometry, to the printed precision.
