@@ -4,7 +4,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from slam_core.datasets import BUNDLED
@@ -56,6 +56,7 @@ times_st = st.lists(st.floats(0, 100, allow_nan=False), min_size=1, max_size=40)
 queries_st = st.lists(st.floats(-5, 105, allow_nan=False), min_size=1, max_size=40)
 
 
+@settings(deadline=None)  # timing is for benchmarks/, not tests
 @given(times_st, queries_st, st.sampled_from([0.0, 0.05, MAX_DT, 1.0, 10.0]))
 def test_nearest_indices_match_brute_force(times, queries, max_dt):
     times, queries = np.array(times), np.array(queries)
@@ -67,6 +68,7 @@ def test_nearest_indices_match_brute_force(times, queries, max_dt):
     assert np.array_equal(np.abs(times[got[hit]] - queries[hit]), np.abs(times[ref[hit]] - queries[hit]))
 
 
+@settings(deadline=None)  # timing is for benchmarks/, not tests
 @given(st.lists(st.floats(0, 100, allow_nan=False), min_size=1, max_size=40, unique=True),
        queries_st)
 def test_nearest_indices_unique_times_match_exactly(times, queries):

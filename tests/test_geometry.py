@@ -60,17 +60,20 @@ def test_wrap_keeps_shape_and_scalar_type():
     assert np.ndim(wrap_angle(7.0)) == 0
 
 
+@settings(deadline=None)  # timing is for benchmarks/, not tests
 @given(poses)
 def test_compose_with_inverse_is_identity(a):
     assert_same_pose(compose(a, inverse(a)), np.zeros(3))
     assert_same_pose(compose(inverse(a), a), np.zeros(3))
 
 
+@settings(deadline=None)  # timing is for benchmarks/, not tests
 @given(poses, poses, poses)
 def test_compose_is_associative(a, b, c):
     assert_same_pose(compose(compose(a, b), c), compose(a, compose(b, c)), tol=1e-6)
 
 
+@settings(deadline=None)  # timing is for benchmarks/, not tests
 @given(poses, poses)
 def test_relative_undoes_compose(a, b):
     assert_same_pose(relative(a, compose(a, b)), b)
@@ -91,6 +94,7 @@ def test_compose_by_hand():
     assert np.allclose(out, [-1.0, 3.0, -math.pi])
 
 
+@settings(deadline=None)  # timing is for benchmarks/, not tests
 @given(arrays(float, (7, 3), elements=st.floats(-100, 100)),
        arrays(float, (7, 3), elements=st.floats(-100, 100)))
 def test_vectorised_equals_per_pose_loop(a, b):
@@ -105,6 +109,7 @@ def test_vectorised_equals_per_pose_loop(a, b):
     assert np.array_equal(compose(a[0], b), np.array([compose(a[0], q) for q in b]))
 
 
+@settings(deadline=None)  # timing is for benchmarks/, not tests
 @given(poses, arrays(float, (5, 2), elements=st.floats(-50, 50)))
 def test_transform_points_matches_compose(pose, pts):
     out = transform_points(pose, pts)
@@ -112,6 +117,7 @@ def test_transform_points_matches_compose(pose, pts):
         assert np.allclose(compose(pose, [p[0], p[1], 0.0])[:2], q, atol=1e-9)
 
 
+@settings(deadline=None)  # timing is for benchmarks/, not tests
 @given(st.floats(-math.pi, math.pi), st.floats(0.0, 0.5))
 def test_circular_mean_near_the_seam(centre, spread):
     angles = np.array([centre - spread, centre + spread, centre])

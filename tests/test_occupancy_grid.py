@@ -4,7 +4,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from slam_core.occupancy_grid import FREE_THRESH, OCCUPIED_THRESH, OccupancyGrid, SensorModel, logit
@@ -24,6 +24,7 @@ def test_world_to_cell_with_resolution_and_origin():
     assert g.contains_cell(9, 9) and not g.contains_cell(10, 0) and not g.contains_cell(0, -1)
 
 
+@settings(deadline=None)  # timing is for benchmarks/, not tests
 @given(st.floats(0.01, 2.0), st.floats(-100, 100), st.floats(-100, 100),
        st.integers(-500, 500), st.integers(-500, 500))
 def test_cell_centres_round_trip(res, ox, oy, ix, iy):
