@@ -10,7 +10,7 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from slam_core.occupancy_grid import OccupancyGrid, SensorModel
-from slam_core.raycast import beam_endpoint, integrate_scan_dense, trace_ray
+from slam_core.raycast import beam_endpoint, integrate_scan_dense, ray_buffer_size, trace_ray
 from slam_core.scan import Scan
 from tests import naive
 
@@ -118,6 +118,7 @@ def test_trace_is_a_4_connected_superset_of_the_reference(x0, y0, x1, y1):
     start, end = (math.floor(x0), math.floor(y0)), (math.floor(x1), math.floor(y1))
     assert fast[0] == start and fast[-1] == end
     assert len(fast) == abs(end[0] - start[0]) + abs(end[1] - start[1]) + 1
+    assert len(fast) <= ray_buffer_size(math.hypot(x1 - x0, y1 - y0), 1.0)   # the kernel's buffer
     for (ax, ay), (bx, by) in itertools.pairwise(fast):
         assert abs(bx - ax) + abs(by - ay) == 1
     it = iter(fast)
@@ -281,3 +282,16 @@ def test_random_scans_match_the_reference_exactly():
         naive.integrate_scan(expected, grid.origin, grid.resolution, pose, scan, model)
         assert np.array_equal(expected, grid.data)
     assert (grid.data > 0).sum() > 100 and (grid.data < 0).sum() > 100
+
+
+# --- the scan type ---------------------------------------------------------------------------
+
+def test_scan_validates_and_classifies():
+    scan = Scan([0.0, 0.1, 0.2, 0.3, 0.4, 0.5], [1.0, 0.05, 80.0, np.inf, np.nan, 0.0], 0.1, 80.0)
+    assert scan.angles.dtype == np.float64 and len(scan) == 6
+    assert scan.valid.tolist() == [True, False, False, False, False, False]
+    assert np.allclose(scan.points(), [[1.0, 0.0]])
+    with pytest.raises(ValueError, match="must be equal 1-D"):
+        Scan([0.0, 1.0], [1.0], 0.1, 10.0)
+    with pytest.raises(ValueError, match="range_min < range_max"):
+        Scan([0.0], [1.0], 5.0, 5.0)

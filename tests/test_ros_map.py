@@ -5,6 +5,7 @@ import pytest
 import yaml
 from PIL import Image
 
+from slam_core.io.render import save_png
 from slam_core.io.ros_map import MapFileError, load_map, save_map
 from slam_core.occupancy_grid import OccupancyGrid, logit
 
@@ -172,3 +173,18 @@ def test_missing_image_and_missing_yaml(tmp_path):
     yml.write_text("image: junk.pgm\nresolution: 0.5\norigin: [0, 0, 0]\n")
     with pytest.raises(MapFileError, match=r"junk\.pgm: cannot read map image"):
         load_map(yml)
+
+
+def test_png_rendering_is_flipped_like_the_pgm(tmp_path):
+    g = OccupancyGrid(1.0, shape=(10, 20))
+    g.data[9, 0] = logit(0.97)                      # top-left in the picture
+    g.data[0, 19] = logit(0.12)                     # bottom-right
+    track = np.array([[5.5, 8.5, 0.0], [15.5, 8.5, 0.0]])
+    path = save_png(g, tmp_path / "m.png", trajectory=track)
+    with Image.open(path) as img:
+        rgb = np.asarray(img.convert("RGB")).astype(int)
+    assert rgb.shape == (10, 20, 3)
+    assert rgb[0, 0].tolist() == [8, 8, 8]          # 255 * (1 - 0.97), rounded
+    assert rgb[9, 19].tolist() == [224, 224, 224]   # 255 * (1 - 0.12)
+    assert rgb[5, 10].tolist() == [128, 128, 128]   # unknown
+    assert rgb[1, 10].tolist() == [220, 30, 30]     # the red track, high y at the top
