@@ -141,11 +141,15 @@ class CarmenReader:
                     pending = self._parse_checked(line_bytes, line_number)
                     if self.progress is not None and line_number % 2000 == 0:
                         self.progress(min(raw.tell() / size, 1.0))
-            except (EOFError, OSError) as exc:
+            except EOFError as exc:
                 if pending is not None:
                     yield pending
                 raise TruncatedLogError(self.path, line_number + 1,
                                         f"compressed stream ends early ({exc})") from exc
+            except OSError as exc:  # not compressed as the suffix says, or corrupt
+                if pending is not None:
+                    yield pending
+                raise LogFormatError(self.path, line_number + 1, f"cannot decompress ({exc})") from exc
             if pending is not None:
                 yield pending
             if self.progress is not None:
