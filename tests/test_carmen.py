@@ -225,6 +225,15 @@ def test_truncated_gz_stream_keeps_what_it_could_decode(tmp_path):
     assert [r.stamp.ipc_text for r in got] == [f"{i}.5" for i in range(len(got))]
 
 
+@pytest.mark.parametrize("suffix", [".bz2", ".gz"])
+def test_uncompressed_data_under_a_compressed_name_is_not_called_truncated(tmp_path, suffix):
+    path = tmp_path / f"plain{suffix}"
+    path.write_text(GOOD)
+    with pytest.raises(LogFormatError, match="cannot decompress") as info:
+        list(CarmenReader(path))
+    assert not isinstance(info.value, TruncatedLogError) and info.value.line_number == 1
+
+
 def test_missing_file_raises_file_not_found(tmp_path):
     with pytest.raises(FileNotFoundError):
         list(CarmenReader(tmp_path / "nope.clf"))

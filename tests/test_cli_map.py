@@ -128,6 +128,14 @@ def test_map_of_a_malformed_log_names_the_line(tmp_path, capsys):
     assert code != 0 and "bad.clf:6:" in err and "oops" in err
 
 
+def test_map_of_a_log_without_scans_fails_clearly(tmp_path, capsys):
+    log = tmp_path / "empty.clf"
+    log.write_text("# nothing but a comment\nODOM 1 2 3 4 5 6 100.0 h 0\n")
+    assert main(["map", str(log), "--out", str(tmp_path / "out")]) != 0
+    assert "empty.clf: no laser records" in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
+
+
 def test_map_of_a_truncated_log_warns_and_keeps_the_scans(tmp_path, capsys):
     log = tmp_path / "cut.clf"
     room_log(log, n_scans=5, truncate=True)
