@@ -187,15 +187,19 @@ class CarmenReader:
             return None
         raise LogFormatError(self.path, line_number, f"unknown message {kind!r}")
 
-    def _numbers(self, fields, start, count, line_number, what):
+    def _numbers(self, fields, start, count, line_number, what, finite=False):
         if len(fields) < start + count:
             raise LogFormatError(self.path, line_number,
                                  f"{what}: expected {count} numbers from field {start + 1}, "
                                  f"line has {len(fields)} fields")
         try:
-            return np.array(fields[start:start + count], dtype=np.float64)
+            values = np.array(fields[start:start + count], dtype=np.float64)
         except ValueError as exc:
             raise LogFormatError(self.path, line_number, f"{what}: {exc}") from exc
+        if finite and not np.isfinite(values).all():
+            text = " ".join(fields[start:start + count])
+            raise LogFormatError(self.path, line_number, f"{what}: not finite ({text})")
+        return values
 
     def _stamp(self, fields, start, line_number, kind) -> Stamp:
         tail = fields[start:]
@@ -227,7 +231,7 @@ class CarmenReader:
         if len(fields) not in (n + 10, n + 11) or not _is_number(fields[n + 8]):
             self._check_beam_count(kind, fields, n, line_number)
         ranges = self._numbers(fields, 2, n, line_number, f"{kind} ranges")
-        poses = self._numbers(fields, 2 + n, 6, line_number, f"{kind} poses")
+        poses = self._numbers(fields, 2 + n, 6, line_number, f"{kind} poses", finite=True)
         stamp = self._stamp(fields, 8 + n, line_number, kind)
         angles = self._angles.get(n)
         if angles is None:
@@ -260,7 +264,7 @@ class CarmenReader:
         ranges = self._numbers(fields, 9, n, line_number, f"{kind} ranges")
         n_rem = self._count(fields, 9 + n, line_number, f"{kind} remission count", minimum=0)
         at = 10 + n + n_rem
-        poses = self._numbers(fields, at, 11, line_number, f"{kind} poses")
+        poses = self._numbers(fields, at, 11, line_number, f"{kind} poses", finite=True)
         stamp = self._stamp(fields, at + 11, line_number, kind)
         angles = uniform_angles(n, start_angle, resolution)
         rmax = max_range if max_range > 0 else self.no_return
@@ -268,7 +272,7 @@ class CarmenReader:
         return LaserRecord(kind, scan, poses[:3], poses[3:6], stamp)
 
     def _odom(self, fields, line_number) -> OdomRecord:
-        values = self._numbers(fields, 1, 6, line_number, "ODOM")
+        values = self._numbers(fields, 1, 6, line_number, "ODOM", finite=True)
         stamp = self._stamp(fields, 7, line_number, "ODOM")
         return OdomRecord(values[:3], float(values[3]), float(values[4]), stamp)
 
