@@ -158,6 +158,8 @@ GOOD = flaser([1.0, 2.0, 3.0])
     ("ODOM 1 2 3 4 5 6 nan nohost 0.1\n", "not finite"),
     ("ROBOTLASER1 0 -1.5 3.14 0.5 30 0.01 0 3 1 2 0 1 2 3 4 5 6 7 8 9 10 11 100.0 h 0\n", "ROBOTLASER1"),
     ("PARAM lonely\n", "PARAM"),
+    ("FLASER 3 1.0 nan 3.0 1 nan 3 4 5 6 100.0 nohost 0.1\n", "poses: not finite (1 nan 3 4 5 6)"),
+    ("ODOM 1 inf 3 4 5 6 100.0 nohost 0.1\n", "not finite"),
     ("flaser 3 1 2 3\n", "unknown message"),
     ("FLASER 3 1.0 2.0 3.0 1 2 3 4 5 6 100.0 nohost 0.1 junk\n", "ipc_timestamp"),
 ])

@@ -45,6 +45,16 @@ def test_invalid_resolution_is_refused():
         OccupancyGrid(0.0)
 
 
+@pytest.mark.parametrize("pose", [(math.nan, 0.0, 0.0), (0.0, math.inf, 0.0), (0.0, 0.0)])
+def test_bad_pose_is_refused_before_touching_the_grid(pose):
+    g = OccupancyGrid(0.1)
+    g.integrate(ring_scan(), (0.0, 0.0, 0.0))
+    before = g.data.copy()
+    with pytest.raises(ValueError, match="three finite numbers"):
+        g.integrate(ring_scan(), pose)
+    assert np.array_equal(g.data, before)
+
+
 def snapshot(grid):
     iy, ix = np.nonzero(grid.data)
     return grid.cell_to_world(np.column_stack([ix, iy])), grid.data[iy, ix].copy()
