@@ -131,7 +131,7 @@ class RBPFSlam:
         log_eta = np.empty(n)
         matched = np.empty(n, np.bool_)
         search = np.array([m.particle_linear_step, m.particle_angular_step, m.particle_refinements,
-                           m.sample_linear, m.sample_angular, m.min_matched * len(beams)])
+                           m.sample_linear, m.sample_angular, max(1.0, m.min_matched * len(beams))])
         improved_proposal(self.maps.tables, self.maps.lo, self.maps.hits, self.maps.origin[0],
                           self.maps.origin[1], self.maps.resolution, self.poses, starts, motion,
                           c.motion.alphas, beams, sample_beams, self._params, search, MIN_VARIANCE, noise,
