@@ -24,12 +24,12 @@ def test_weights_follow_the_inflation_formula():
     known = t != -1
     expect = np.where(d <= 0.12, np.inf, np.where(d > 0.4, 1.0, 1.0 + 8.0 * np.exp(-5.0 * (d - 0.12))))
     expect = np.where(known, expect, expect + cfg.unknown_cost)
-    np.testing.assert_allclose(cm.weights, expect)
+    np.testing.assert_allclose(cm.weights, expect, rtol=1e-7)
     assert np.array_equal(cm.lethal, d <= 0.12)
     # Weights fall monotonically with clearance, from 1 + max_cost down to 1.
     free = known & np.isfinite(cm.weights)
     order = np.argsort(d[free])
-    assert np.all(np.diff(cm.weights[free][order]) <= 1e-12)
+    assert np.all(np.diff(cm.weights[free][order]) <= 0)
     assert cm.weights[free].max() <= 1 + 8.0 and cm.weights[free].min() == 1.0
 
 

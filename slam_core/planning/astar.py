@@ -37,6 +37,7 @@ HEAP_CAPACITY = 1 << 14
 FOUND = 0
 UNREACHABLE = 1
 CANCELLED = 2
+HEAP_FULL = 3
 
 _DX = np.array([1, -1, 0, 0, 1, 1, -1, -1], np.int64)
 _DY = np.array([0, 0, 1, -1, 1, -1, 1, -1], np.int64)
@@ -89,52 +90,47 @@ def _octile(x, y, gx, gy, diagonal_step):
 
 
 @njit
-def _astar_kernel(w, nxp, start, goal, diagonal_step, corner_cutting, cancel):
-    """A* over flat padded weights ``w`` (row length ``nxp``, ``inf`` border).
+def _search(w, nxp, goal, diagonal_step, corner_cutting, cancel, g, parent, heap, size, expansions):
+    """The A* loop over flat padded weights ``w`` (row length ``nxp``, ``inf`` border).
 
-    Returns ``(status, expansions, path, g)``: ``path`` the padded indices from
-    start to goal (empty unless found), ``g`` the cost of every settled cell.
+    Resumable: returns ``(status, size, expansions)`` with status ``HEAP_FULL``
+    when ``heap`` must grow (growing inside this loop would make numba
+    reference-count the reassigned array on every iteration).
+
+    No closed set: a heap entry is stale when its key is no longer the cell's
+    current ``f`` (a cell's key is recomputed by the same expression, so the
+    live entry matches exactly); an expanded cell is never improved again
+    because the heuristic is consistent.
     """
-    n = w.shape[0]
-    g = np.full(n, np.inf)
-    parent = np.empty(n, np.int32)
-    closed = np.zeros(n, np.uint8)
-    # Keys and cells interleaved in one float64 array (cells < 2**53 are exact):
-    # one cache line per heap level instead of two.
-    heap = np.empty(2 * HEAP_CAPACITY, np.float64)
     gx = goal % nxp
     gy = goal // nxp
     h_scale = 1.0 + TIE_BREAK
     offs = _DX + _DY * nxp
-    g[start] = 0.0
-    parent[start] = start
-    heap[0] = 0.0
-    heap[1] = start
-    size = 1
-    expansions = 0
-    status = UNREACHABLE
+    capacity = heap.shape[0] // 2
     while size > 0:
+        if size + 8 > capacity:
+            return HEAP_FULL, size, expansions
+        key = heap[0]
         cur = np.int64(heap[1])
         size -= 1
         if size > 0:
             heap[0] = heap[2 * size]
             heap[1] = heap[2 * size + 1]
             _sift_down(heap, size)
-        if closed[cur]:
+        cx = cur % nxp
+        cy = cur // nxp
+        gc = g[cur]
+        if key != gc + h_scale * _octile(cx, cy, gx, gy, diagonal_step):
             continue
-        closed[cur] = 1
         if cur == goal:
-            status = FOUND
-            break
+            return FOUND, size, expansions
         expansions += 1
         if (expansions & (CANCEL_POLL - 1)) == 0 and cancel[0] != 0:
-            status = CANCELLED
-            break
-        gc = g[cur]
+            return CANCELLED, size, expansions
         for k in range(8):
             nb = cur + offs[k]
             wn = w[nb]
-            if wn == np.inf or closed[nb]:
+            if wn == np.inf:
                 continue
             if k < 4:
                 ng = gc + wn
@@ -145,12 +141,39 @@ def _astar_kernel(w, nxp, start, goal, diagonal_step, corner_cutting, cancel):
             if ng < g[nb]:
                 g[nb] = ng
                 parent[nb] = cur
-                if 2 * size == heap.shape[0]:
-                    heap = np.concatenate((heap, np.empty_like(heap)))
-                heap[2 * size] = ng + h_scale * _octile(nb % nxp, nb // nxp, gx, gy, diagonal_step)
+                heap[2 * size] = ng + h_scale * _octile(cx + _DX[k], cy + _DY[k], gx, gy, diagonal_step)
                 heap[2 * size + 1] = nb
                 _sift_up(heap, size)
                 size += 1
+    return UNREACHABLE, size, expansions
+
+
+@njit
+def _astar_kernel(w, nxp, start, goal, diagonal_step, corner_cutting, cancel):
+    """A* from padded index ``start`` to ``goal``.
+
+    Returns ``(status, expansions, path, g)``: ``path`` the padded indices from
+    start to goal (empty unless found), ``g`` the best known cost of every
+    reached cell (exact for every expanded cell).
+    """
+    n = w.shape[0]
+    g = np.full(n, np.inf)
+    parent = np.empty(n, np.int32)
+    # Keys and cells interleaved in one float64 array (cells < 2**53 are exact):
+    # one cache line per heap level instead of two.
+    heap = np.empty(2 * HEAP_CAPACITY, np.float64)
+    g[start] = 0.0
+    parent[start] = start
+    heap[0] = (1.0 + TIE_BREAK) * _octile(start % nxp, start // nxp, goal % nxp, goal // nxp, diagonal_step)
+    heap[1] = start
+    size = 1
+    expansions = 0
+    status = HEAP_FULL
+    while status == HEAP_FULL:
+        status, size, expansions = _search(w, nxp, goal, diagonal_step, corner_cutting, cancel, g, parent,
+                                           heap, size, expansions)
+        if status == HEAP_FULL:
+            heap = np.concatenate((heap, np.empty_like(heap)))
     if status != FOUND:
         return status, expansions, np.empty(0, np.int64), g
     length = 1
