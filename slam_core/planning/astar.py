@@ -33,6 +33,8 @@ TIE_BREAK = 1e-9
 CANCEL_POLL = 1024
 #: Initial binary-heap capacity (it doubles when full).
 HEAP_CAPACITY = 1 << 14
+#: Entries of the bypass stack (successors expanded without touching the heap).
+BYPASS_CAPACITY = 1 << 12
 
 FOUND = 0
 UNREACHABLE = 1
@@ -60,10 +62,14 @@ def _sift_up(heap, i):
 
 
 @njit(inline="always")
-def _sift_down(heap, size):
-    """Restore the heap after entry 0 was replaced (``size`` entries)."""
-    key = heap[0]
-    val = heap[1]
+def _pop_top(heap, size):
+    """Drop entry 0; ``size`` entries remain, the last of which sits at index ``size``.
+
+    Floyd's bottom-up deletion: the hole walks down to a leaf along the smaller
+    children (one comparison per level), then the last entry climbs back up.
+    """
+    key = heap[2 * size]
+    val = heap[2 * size + 1]
     i = 0
     while True:
         c = 2 * i + 1
@@ -71,11 +77,16 @@ def _sift_down(heap, size):
             break
         if c + 1 < size and heap[2 * c + 2] < heap[2 * c]:
             c += 1
-        if heap[2 * c] >= key:
-            break
         heap[2 * i] = heap[2 * c]
         heap[2 * i + 1] = heap[2 * c + 1]
         i = c
+    while i > 0:
+        p = (i - 1) >> 1
+        if heap[2 * p] <= key:
+            break
+        heap[2 * i] = heap[2 * p]
+        heap[2 * i + 1] = heap[2 * p + 1]
+        i = p
     heap[2 * i] = key
     heap[2 * i + 1] = val
 
@@ -90,43 +101,54 @@ def _octile(x, y, gx, gy, diagonal_step):
 
 
 @njit
-def _search(w, nxp, goal, diagonal_step, corner_cutting, cancel, g, parent, heap, size, expansions):
+def _search(w, nxp, goal, diagonal_step, corner_cutting, cancel, g, parent, heap, size, stack, top,
+            expansions):
     """The A* loop over flat padded weights ``w`` (row length ``nxp``, ``inf`` border).
 
-    Resumable: returns ``(status, size, expansions)`` with status ``HEAP_FULL``
-    when ``heap`` must grow (growing inside this loop would make numba
-    reference-count the reassigned array on every iteration).
+    Resumable: returns ``(status, size, top, expansions)`` with status
+    ``HEAP_FULL`` when ``heap`` must grow (growing inside this loop would make
+    numba reference-count the reassigned array on every iteration).
 
-    No closed set: a heap entry is stale when its key is no longer the cell's
+    No closed set: an entry is stale when its key is no longer the cell's
     current ``f`` (a cell's key is recomputed by the same expression, so the
     live entry matches exactly); an expanded cell is never improved again
     because the heuristic is consistent.
+
+    Bypass: a successor whose key is not above the key being expanded would be
+    the very next heap minimum (``f`` never decreases along a path), so it goes
+    on a small LIFO ``stack`` expanded before the heap is touched again. In
+    open space most moves toward the goal keep ``f`` constant, so most cells
+    skip the heap's ``O(log n)`` push and pop.
     """
     gx = goal % nxp
     gy = goal // nxp
     h_scale = 1.0 + TIE_BREAK
     offs = _DX + _DY * nxp
     capacity = heap.shape[0] // 2
-    while size > 0:
+    stack_capacity = stack.shape[0] // 2
+    while size > 0 or top > 0:
         if size + 8 > capacity:
-            return HEAP_FULL, size, expansions
-        key = heap[0]
-        cur = np.int64(heap[1])
-        size -= 1
-        if size > 0:
-            heap[0] = heap[2 * size]
-            heap[1] = heap[2 * size + 1]
-            _sift_down(heap, size)
+            return HEAP_FULL, size, top, expansions
+        if top > 0:
+            top -= 1
+            key = stack[2 * top]
+            cur = np.int64(stack[2 * top + 1])
+        else:
+            key = heap[0]
+            cur = np.int64(heap[1])
+            size -= 1
+            if size > 0:
+                _pop_top(heap, size)
         cx = cur % nxp
         cy = cur // nxp
         gc = g[cur]
         if key != gc + h_scale * _octile(cx, cy, gx, gy, diagonal_step):
             continue
         if cur == goal:
-            return FOUND, size, expansions
+            return FOUND, size, top, expansions
         expansions += 1
         if (expansions & (CANCEL_POLL - 1)) == 0 and cancel[0] != 0:
-            return CANCELLED, size, expansions
+            return CANCELLED, size, top, expansions
         for k in range(8):
             nb = cur + offs[k]
             wn = w[nb]
@@ -141,11 +163,17 @@ def _search(w, nxp, goal, diagonal_step, corner_cutting, cancel, g, parent, heap
             if ng < g[nb]:
                 g[nb] = ng
                 parent[nb] = cur
-                heap[2 * size] = ng + h_scale * _octile(cx + _DX[k], cy + _DY[k], gx, gy, diagonal_step)
-                heap[2 * size + 1] = nb
-                _sift_up(heap, size)
-                size += 1
-    return UNREACHABLE, size, expansions
+                nkey = ng + h_scale * _octile(cx + _DX[k], cy + _DY[k], gx, gy, diagonal_step)
+                if nkey <= key and top < stack_capacity:
+                    stack[2 * top] = nkey
+                    stack[2 * top + 1] = nb
+                    top += 1
+                else:
+                    heap[2 * size] = nkey
+                    heap[2 * size + 1] = nb
+                    _sift_up(heap, size)
+                    size += 1
+    return UNREACHABLE, size, top, expansions
 
 
 @njit
@@ -167,11 +195,13 @@ def _astar_kernel(w, nxp, start, goal, diagonal_step, corner_cutting, cancel):
     heap[0] = (1.0 + TIE_BREAK) * _octile(start % nxp, start // nxp, goal % nxp, goal // nxp, diagonal_step)
     heap[1] = start
     size = 1
+    stack = np.empty(2 * BYPASS_CAPACITY, np.float64)
+    top = 0
     expansions = 0
     status = HEAP_FULL
     while status == HEAP_FULL:
-        status, size, expansions = _search(w, nxp, goal, diagonal_step, corner_cutting, cancel, g, parent,
-                                           heap, size, expansions)
+        status, size, top, expansions = _search(w, nxp, goal, diagonal_step, corner_cutting, cancel, g,
+                                                parent, heap, size, stack, top, expansions)
         if status == HEAP_FULL:
             heap = np.concatenate((heap, np.empty_like(heap)))
     if status != FOUND:
