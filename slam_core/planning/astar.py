@@ -41,6 +41,11 @@ UNREACHABLE = 1
 CANCELLED = 2
 HEAP_FULL = 3
 
+#: Open-list entries hold a cell as ``(y << XY_SHIFT) | x`` (exact in float64), not its index,
+#: so no division by the row length is needed when it is popped.
+XY_SHIFT = 24
+XY_MASK = (1 << XY_SHIFT) - 1
+
 _DX = np.array([1, -1, 0, 0, 1, 1, -1, -1], np.int64)
 _DY = np.array([0, 0, 1, -1, 1, -1, 1, -1], np.int64)
 
@@ -132,15 +137,16 @@ def _search(w, nxp, goal, diagonal_step, corner_cutting, cancel, g, parent, heap
         if top > 0:
             top -= 1
             key = stack[2 * top]
-            cur = np.int64(stack[2 * top + 1])
+            code = np.int64(stack[2 * top + 1])
         else:
             key = heap[0]
-            cur = np.int64(heap[1])
+            code = np.int64(heap[1])
             size -= 1
             if size > 0:
                 _pop_top(heap, size)
-        cx = cur % nxp
-        cy = cur // nxp
+        cx = code & XY_MASK
+        cy = code >> XY_SHIFT
+        cur = cy * nxp + cx
         gc = g[cur]
         if key != gc + h_scale * _octile(cx, cy, gx, gy, diagonal_step):
             continue
@@ -163,14 +169,17 @@ def _search(w, nxp, goal, diagonal_step, corner_cutting, cancel, g, parent, heap
             if ng < g[nb]:
                 g[nb] = ng
                 parent[nb] = cur
-                nkey = ng + h_scale * _octile(cx + _DX[k], cy + _DY[k], gx, gy, diagonal_step)
+                nx_ = cx + _DX[k]
+                ny_ = cy + _DY[k]
+                nkey = ng + h_scale * _octile(nx_, ny_, gx, gy, diagonal_step)
+                ncode = (ny_ << XY_SHIFT) | nx_
                 if nkey <= key and top < stack_capacity:
                     stack[2 * top] = nkey
-                    stack[2 * top + 1] = nb
+                    stack[2 * top + 1] = ncode
                     top += 1
                 else:
                     heap[2 * size] = nkey
-                    heap[2 * size + 1] = nb
+                    heap[2 * size + 1] = ncode
                     _sift_up(heap, size)
                     size += 1
     return UNREACHABLE, size, top, expansions
@@ -193,7 +202,7 @@ def _astar_kernel(w, nxp, start, goal, diagonal_step, corner_cutting, cancel):
     g[start] = 0.0
     parent[start] = start
     heap[0] = (1.0 + TIE_BREAK) * _octile(start % nxp, start // nxp, goal % nxp, goal // nxp, diagonal_step)
-    heap[1] = start
+    heap[1] = ((start // nxp) << XY_SHIFT) | (start % nxp)
     size = 1
     stack = np.empty(2 * BYPASS_CAPACITY, np.float64)
     top = 0
@@ -262,6 +271,8 @@ def astar(costmap: Costmap, start, goal, *, diagonal_step: float = SQRT2, corner
             raise ValueError(f"{name} cell {tuple(int(v) for v in c)} is outside the {nx}x{ny} costmap")
     if diagonal_step < 1.0:
         raise ValueError(f"diagonal_step must be >= 1 (admissible heuristic), got {diagonal_step}")
+    if nx + 2 > XY_MASK:
+        raise ValueError(f"costmap is {nx} cells wide; at most {XY_MASK - 2} are supported")
     cancel = new_cancel_flag() if cancel is None else cancel
     if cancel.dtype != np.uint8 or cancel.shape != (1,):
         raise ValueError("cancel must be a one-element uint8 array (see new_cancel_flag)")
