@@ -188,3 +188,11 @@ def test_planner_cancel_from_another_thread():
     worker.join(timeout=30)
     assert isinstance(out.get("error"), PlanCancelled) and out["error"].reason == "cancelled"
     assert planner.path is None and planner.goal is None
+
+
+def test_goal_in_start_cell_is_a_one_point_path():
+    cm = cm_of(house())
+    planner = Planner()
+    path = planner.plan(cm, world(10, 10), world(10, 10) + 0.01)
+    assert path.waypoints.shape == (1, 2) and path.cost == 0.0
+    assert planner.check(cm, world(10, 10)) is None
