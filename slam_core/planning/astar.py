@@ -71,17 +71,18 @@ def _pop_top(heap, size):
     """Drop entry 0; ``size`` entries remain, the last of which sits at index ``size``.
 
     Floyd's bottom-up deletion: the hole walks down to a leaf along the smaller
-    children (one comparison per level), then the last entry climbs back up.
+    children (one comparison per level, no unpredictable branch), then the last
+    entry climbs back up.
     """
     key = heap[2 * size]
     val = heap[2 * size + 1]
+    heap[2 * size] = np.inf  # sentinel: a missing right child never wins
     i = 0
     while True:
         c = 2 * i + 1
         if c >= size:
             break
-        if c + 1 < size and heap[2 * c + 2] < heap[2 * c]:
-            c += 1
+        c += heap[2 * c + 2] < heap[2 * c]  # branch-free choice of the smaller child
         heap[2 * i] = heap[2 * c]
         heap[2 * i + 1] = heap[2 * c + 1]
         i = c
