@@ -252,7 +252,8 @@ def main() -> None:
     print()
     print("homebot's own rules (octile, sqrt(2) diagonals, no corner cutting) and the full Planner.plan "
           "(A* + snapping + shortcuts + 0.25 m waypoints, costmap prebuilt):")
-    print("| map | costmap build first (compile) / warm | A* first call (kernel already compiled) | A* warm | Planner.plan warm "
+    print("| map | costmap build first (compile) / warm | A* first call (kernel already compiled) "
+          "| A* warm | Planner.plan warm "
           "| cost (cells) | pyastar2d path under these rules | waypoints | length | peak RSS |")
     print("|---|---|---|---|---|---|---|---|---|---|")
     for cold, _ in rows:
