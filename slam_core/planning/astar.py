@@ -6,7 +6,9 @@ units, with ``|a - b|`` = 1 (orthogonal) or ``diagonal_step`` (``sqrt(2)``), and
 allowed only if both orthogonal cells it squeezes between are traversable.
 Because ``w >= 1`` the octile distance ``max(dx, dy) + (diagonal_step - 1) *
 min(dx, dy)`` is an admissible, consistent heuristic, so a cell's cost is final
-when it leaves the open list (closed set, lazy deletion in a binary heap).
+when it leaves the open list (a binary heap with lazy deletion, see ``_search``).
+With ``diagonal_step=1, corner_cutting=True`` the rules are pyastar2d's (the
+benchmark compares the two on those).
 
 Ties on ``f = g + h`` go to the cell nearer the goal: the heuristic is scaled
 by ``1 + TIE_BREAK``, which bounds the returned cost to within a relative
@@ -117,8 +119,9 @@ def _search(w, nxp, goal, diagonal_step, corner_cutting, cancel, g, parent, heap
 
     No closed set: an entry is stale when its key is no longer the cell's
     current ``f`` (a cell's key is recomputed by the same expression, so the
-    live entry matches exactly); an expanded cell is never improved again
-    because the heuristic is consistent.
+    live entry matches exactly). The heuristic is consistent, so an expanded
+    cell is not improved again (if the ``TIE_BREAK`` scaling ever allowed a
+    tiny improvement, the cell would simply be pushed and expanded again).
 
     Bypass: a successor whose key is not above the key being expanded would be
     the very next heap minimum (``f`` never decreases along a path), so it goes
