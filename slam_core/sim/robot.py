@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from slam_core.sensors.wheel_odometry import DiffDriveGeometry, integrate_ticks
+from slam_core.sensors.wheel_odometry import DiffDriveGeometry, ticks_to_increment
 from slam_core.sim.raycast import _clearance
 from slam_core.sim.world import World
 
@@ -132,8 +132,8 @@ class SimRobot:
         self._ticks = (math.floor(self._wheel_angle[0] / (2 * math.pi) * tpr),
                        math.floor(self._wheel_angle[1] / (2 * math.pi) * tpr))
         dl, dr = self._ticks[0] - old[0], self._ticks[1] - old[1]
-        if dl or dr:
-            self._odom = integrate_ticks(self._odom, dl, dr, self.geometry)
+        if dl or dr:  # integrate_ticks, with the scalar compose of the physics loop
+            self._odom = _compose(self._odom, ticks_to_increment(dl, dr, self.geometry))
         self.time += dt
 
     # --- state ------------------------------------------------------------------------------
@@ -144,7 +144,11 @@ class SimRobot:
 
     @property
     def odometry_pose(self) -> np.ndarray:
-        """Pose integrated from the encoder ticks (starts at the true start pose)."""
+        """Pose integrated from the encoder ticks (starts at the true start pose).
+
+        Equal to folding :func:`slam_core.sensors.wheel_odometry.integrate_ticks` over
+        the tick increments of every :meth:`step`.
+        """
         return self._odom.copy()
 
     @property
