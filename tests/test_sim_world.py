@@ -77,6 +77,7 @@ def test_minimal_world_fields():
 
 @pytest.mark.parametrize("text, line, words", [
     ("start 1 1 0\nroom r 0 0 4 3\nwal 0 0 1 1\n", 3, "unknown statement"),
+    ("start 1 1 0\nroom r 0 0 4 3\nbuild\n", 3, "unknown statement"),
     ("start 1 1\nroom r 0 0 4 3\n", 1, "expected 3 numbers"),
     ("start 1 1 0\nroom r 0 0 4 3\ndoor 1 1 2 2\n", 3, "does not lie on any wall"),
     ("start 1 1 0\nroom r 0 0 x 3\n", 2, "'x' is not a number"),
