@@ -77,6 +77,16 @@ def test_ground_truth_scans_rebuild_the_ground_truth_walls(flat_recording):
             near |= np.roll(np.roll(gt_occ, dy, 0), dx, 1)
     precision = near[gy[inside], gx[inside]].mean()
     assert precision > 0.97
+    # recall: ground-truth wall cells the scans saw (hit at least twice) are rebuilt as walls
+    on_gt = np.zeros_like(gt_occ)
+    on_gt[gy[inside], gx[inside]] = True
+    near_rebuilt = np.zeros_like(gt_occ)
+    for dy in (-1, 0, 1):
+        for dx in (-1, 0, 1):
+            near_rebuilt |= np.roll(np.roll(on_gt, dy, 0), dx, 1)
+    seen = _hit_counts(grid, rec, gt) >= 2
+    assert (seen & gt_occ).sum() > 300
+    assert near_rebuilt[seen & gt_occ].mean() > 0.95
     # and the start pose is free floor in the ground-truth map
     sx, sy = gt.world_to_cell(world.start[:2])
     assert gt.trinary()[sy, sx] == 0
@@ -102,3 +112,18 @@ def test_cli_rejects_bad_input(tmp_path, capsys):
     assert main(["sim", "record", "flat", "--out", str(tmp_path), "--duration", "-1"]) == 2
     assert main(["sim", "worlds"]) == 0
     assert "house" in capsys.readouterr().out
+
+
+def _hit_counts(grid, rec, gt):
+    """How many beam endpoints of the log (placed at the true poses) fall in each ground-truth cell."""
+    truth = Trajectory.load(rec.ground_truth)
+    counts = np.zeros(gt.shape, int)
+    lasers = [r for r in CarmenReader(rec.log) if isinstance(r, LaserRecord)]
+    for r, pose in zip(lasers, truth.poses, strict=True):
+        pts = r.scan.points()
+        c, s = np.cos(pose[2]), np.sin(pose[2])
+        world = np.column_stack([pose[0] + c * pts[:, 0] - s * pts[:, 1],
+                                 pose[1] + s * pts[:, 0] + c * pts[:, 1]])
+        cells = gt.world_to_cell(world)
+        np.add.at(counts, (cells[:, 1], cells[:, 0]), 1)
+    return counts
