@@ -2,6 +2,7 @@ import numpy as np
 import pytest
 
 from app.cli import main
+from slam_core.geometry import transform_points
 from slam_core.io.carmen import CarmenReader, LaserRecord, OdomRecord
 from slam_core.io.ros_map import load_map
 from slam_core.io.trajectory import Trajectory
@@ -120,10 +121,6 @@ def _hit_counts(grid, rec, gt):
     counts = np.zeros(gt.shape, int)
     lasers = [r for r in CarmenReader(rec.log) if isinstance(r, LaserRecord)]
     for r, pose in zip(lasers, truth.poses, strict=True):
-        pts = r.scan.points()
-        c, s = np.cos(pose[2]), np.sin(pose[2])
-        world = np.column_stack([pose[0] + c * pts[:, 0] - s * pts[:, 1],
-                                 pose[1] + s * pts[:, 0] + c * pts[:, 1]])
-        cells = gt.world_to_cell(world)
+        cells = gt.world_to_cell(transform_points(pose, r.scan.points()))
         np.add.at(counts, (cells[:, 1], cells[:, 0]), 1)
     return counts
