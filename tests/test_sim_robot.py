@@ -29,6 +29,8 @@ def test_interface_types():
         r.set_velocity(float("nan"), 0.0)
     with pytest.raises(ValueError, match="dt"):
         r.step(0.0)
+    with pytest.raises(ValueError, match="finite"):
+        SimRobot(BOX, pose=[1.0, 1.0])
     with pytest.raises(ValueError, match="inside an obstacle"):
         SimRobot(BOX, pose=[0.05, 1.0, 0.0])
 

@@ -85,6 +85,8 @@ class SimRobot:
         self._segments, self._circles = world.obstacles(obstacle_min_height)
         start = world.start if pose is None else np.asarray(pose, dtype=float)
         self._pose = np.array(start, dtype=float)
+        if self._pose.shape != (3,) or not np.all(np.isfinite(self._pose)):
+            raise ValueError(f"start pose must be a finite (x, y, theta), got {start!r}")
         if self.clearance() < self.radius:
             raise ValueError(f"start pose {tuple(self._pose)} puts the robot (radius {self.radius} m) "
                              f"inside an obstacle in world {world.name!r}")
@@ -97,8 +99,8 @@ class SimRobot:
         self._cmd = (0.0, 0.0)
         self._v = 0.0
         self._w = 0.0
-        self.time = 0.0
-        self.bumped = False
+        self.time = 0.0  # simulated seconds since creation
+        self.bumped = False  # the last step ended against an obstacle
 
     # --- the hardware interface -------------------------------------------------------------
     def set_velocity(self, v: float, w: float) -> None:
