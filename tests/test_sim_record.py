@@ -2,6 +2,7 @@ import numpy as np
 import pytest
 
 from app.cli import main
+from slam_core.evaluation import load_relations, relation_error
 from slam_core.geometry import transform_points
 from slam_core.io.carmen import CarmenReader, LaserRecord, OdomRecord
 from slam_core.io.ros_map import load_map
@@ -40,6 +41,18 @@ def test_log_reads_back_with_the_right_counts(flat_recording):
     assert np.allclose(odo[-1], truth.poses[-1] + rec.final_odometry_error, atol=1e-5)
     assert 0.001 < np.hypot(*rec.final_odometry_error[:2]) < 1.0
     assert np.hypot(*(truth.poses[-1, :2] - truth.poses[0, :2])) > 1.0  # it actually drove
+
+
+def test_relations_score_truth_perfectly_and_odometry_not(flat_recording):
+    _, rec = flat_recording
+    relations = load_relations(rec.relations)
+    assert len(relations) == (rec.scans - 1) // 20
+    truth = Trajectory.load(rec.ground_truth)
+    perfect = relation_error(truth.times, truth.poses, relations)
+    assert perfect.count == len(relations) and perfect.trans.max() < 1e-5 and perfect.rot.max() < 1e-3
+    odometry = np.array([r.pose for r in CarmenReader(rec.log) if isinstance(r, LaserRecord)])
+    drift = relation_error(truth.times, odometry, relations)
+    assert drift.count == len(relations) and drift.trans.mean() > 1e-4
 
 
 def test_scans_match_ray_casting_from_the_true_pose(flat_recording):
@@ -97,8 +110,8 @@ def test_cli_records_depth_camera_logs(tmp_path):
     out = tmp_path / "run"
     assert main(["sim", "record", "house", "--out", str(out), "--sensor", "depth", "--duration", "2",
                  "--seed", "4"]) == 0
-    for name in ("sim.clf", "groundtruth.txt", "groundtruth_map.pgm", "groundtruth_map.yaml",
-                 "groundtruth_map.png", "world.txt"):
+    for name in ("sim.clf", "groundtruth.txt", "groundtruth.relations", "groundtruth_map.pgm",
+                 "groundtruth_map.yaml", "groundtruth_map.png", "world.txt"):
         assert (out / name).is_file()
     lasers = [r for r in CarmenReader(out / "sim.clf") if isinstance(r, LaserRecord)]
     assert len(lasers) == 41
