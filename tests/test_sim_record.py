@@ -46,6 +46,7 @@ def test_log_reads_back_with_the_right_counts(flat_recording):
 def test_relations_score_truth_perfectly_and_odometry_not(flat_recording):
     _, rec = flat_recording
     relations = load_relations(rec.relations)
+    # 12 s of tour: only the 1 s relations (loop relations need >= 30 s between revisits)
     assert len(relations) == (rec.scans - 1) // 20
     truth = Trajectory.load(rec.ground_truth)
     perfect = relation_error(truth.times, truth.poses, relations)
@@ -137,3 +138,24 @@ def _hit_counts(grid, rec, gt):
         cells = gt.world_to_cell(transform_points(pose, r.scan.points()))
         np.add.at(counts, (cells[:, 1], cells[:, 0]), 1)
     return counts
+
+
+def test_loop_relations_join_revisits(tmp_path):
+    from slam_core.sim.record import write_relations
+    # out along x for 40 s and back: poses 60+ s apart at the same place get a loop relation
+    t = np.arange(0, 1601) * 0.05
+    x = np.where(t <= 40, 0.1 * t, 8.0 - 0.1 * (t - 40))
+    poses = np.column_stack([x, np.zeros_like(x), np.where(t <= 40, 0.0, np.pi)])
+    truth = Trajectory([f"{v:.6f}" for v in t], poses)
+    relations = load_relations(write_relations(truth, tmp_path / "r.relations"))
+    long = relations[relations[:, 1] - relations[:, 0] > 1.5]
+    assert len(relations) == 80 + len(long) and len(long) > 0
+    assert np.all(long[:, 1] - long[:, 0] >= 30.0 - 1e-9)
+    # every loop relation is between the same place visited twice (within 3 m)
+    i1 = np.rint(long[:, 0] / 0.05).astype(int)
+    i2 = np.rint(long[:, 1] / 0.05).astype(int)
+    assert np.all(np.abs(x[i1] - x[i2]) <= 3.0)
+    assert np.allclose(np.hypot(long[:, 2], long[:, 3]), np.abs(x[i1] - x[i2]), atol=1e-5)
+    dth = np.abs(poses[i2, 2] - poses[i1, 2])
+    assert np.allclose(np.abs(long[:, 4]), dth, atol=1e-5)
+    assert np.any(dth == np.pi)  # some join the way out with the way back

@@ -8,8 +8,9 @@ Writes into the output folder:
   scans are resampled to evenly spaced bearings first (ROBOTLASER1 needs them).
 - ``groundtruth.txt`` — the true pose of every scan, ``ipc_timestamp x y theta``
   with the same timestamp text as the log (:class:`slam_core.io.trajectory.Trajectory`).
-- ``groundtruth.relations`` — relations (Kümmerle et al. 2009) between the true poses
-  ``RELATION_SPACING`` scans apart, for ``homebot eval TRAJECTORY groundtruth.relations``.
+- ``groundtruth.relations`` — relations (Kümmerle et al. 2009) between true poses 1 s
+  apart and between revisits of the same place (loop relations), for
+  ``homebot eval TRAJECTORY groundtruth.relations``.
 - ``groundtruth_map.pgm`` / ``.yaml`` (ROS map_server) and ``groundtruth_map.png``
   (with the true path), rasterised from the geometry at least as tall as the sensor's
   mounting height (what the scan plane sees).
@@ -39,6 +40,11 @@ GROUND_TRUTH_NAME = "groundtruth.txt"
 RELATIONS_NAME = "groundtruth.relations"
 #: Scans between the two poses of a ground-truth relation (1 s at 20 Hz).
 RELATION_SPACING = 20
+#: Loop relations: poses sampled every LOOP_SAMPLE scans, at least LOOP_MIN_GAP scans apart,
+#: no further apart than LOOP_RADIUS metres.
+LOOP_SAMPLE = 100
+LOOP_MIN_GAP = 600
+LOOP_RADIUS = 3.0
 MAP_STEM = "groundtruth_map"
 
 
@@ -104,12 +110,24 @@ def record_tour(world: World, out_dir, seed: int = 0, sensor: str = "lidar", dur
 
 
 def write_relations(truth: Trajectory, path, spacing: int = RELATION_SPACING) -> Path:
-    """Relations ``t1 t2 x y z roll pitch yaw`` between true poses ``spacing`` scans apart."""
+    """Relations ``t1 t2 x y z roll pitch yaw`` between true poses, as Kümmerle et al. pick them.
+
+    Local relations join poses ``spacing`` scans apart; loop relations join poses
+    sampled every ``LOOP_SAMPLE`` scans that are at least ``LOOP_MIN_GAP`` scans apart
+    in time but within ``LOOP_RADIUS`` metres (the same place revisited), so that
+    drift and failed loop closures show in the score.
+    """
     poses = truth.poses
     i = np.arange(0, len(poses) - spacing, spacing)
-    delta = relative(poses[i], poses[i + spacing])
+    pairs = list(zip(i.tolist(), (i + spacing).tolist(), strict=True))
+    samples = np.arange(0, len(poses), LOOP_SAMPLE)
+    for k, a in enumerate(samples):
+        for b in samples[k + 1:]:
+            if b - a >= LOOP_MIN_GAP and np.hypot(*(poses[b, :2] - poses[a, :2])) <= LOOP_RADIUS:
+                pairs.append((int(a), int(b)))
     with open(path, "w") as f:
-        for a, (dx, dy, dth) in zip(i, delta, strict=True):
-            f.write(f"{truth.stamps[a]} {truth.stamps[a + spacing]} {dx:.6f} {dy:.6f} 0.000000 "
+        for a, b in pairs:
+            dx, dy, dth = relative(poses[a], poses[b])
+            f.write(f"{truth.stamps[a]} {truth.stamps[b]} {dx:.6f} {dy:.6f} 0.000000 "
                     f"0.000000 0.000000 {dth:.6f}\n")
     return Path(path)
