@@ -70,11 +70,14 @@ def mahalanobis_table(z_obs: np.ndarray, r_obs: np.ndarray, z_pred: np.ndarray,
 
 
 def associate(state: EkfState, z_obs: np.ndarray, r_obs: np.ndarray, gate: float = CHI2_2_99,
-              new_gate: float = CHI2_2_9999, compatible: np.ndarray | None = None) -> Association:
+              new_gate: float = CHI2_2_9999, compatible: np.ndarray | None = None,
+              reject_ambiguous: bool = True) -> Association:
     """Gate, then match nearest neighbours greedily; see the module docstring.
 
     ``compatible`` (``(n_obs, k)`` bool, optional) rules out pairs whose appearance differs
     (a spike is not a corner; corners facing different ways are different corners).
+    With ``reject_ambiguous`` an observation with two or more landmarks inside its gate is
+    not used at all (a wrong match costs far more than a missed one).
     """
     n_obs = len(z_obs)
     z_pred, s_pred = predicted_innovation_covariances(state)
@@ -84,13 +87,14 @@ def associate(state: EkfState, z_obs: np.ndarray, r_obs: np.ndarray, gate: float
     d2 = mahalanobis_table(z_obs, r_obs, z_pred, s_pred)
     if compatible is not None:
         d2 = np.where(compatible, d2, np.inf)
-    order = np.argsort(d2, axis=None)
+    usable = np.where(((d2 <= gate).sum(axis=1) > 1)[:, None], np.inf, d2) if reject_ambiguous else d2
+    order = np.argsort(usable, axis=None)
     used_obs = np.zeros(n_obs, dtype=bool)
     used_lm = np.zeros(len(z_pred), dtype=bool)
     matches = []
     for flat in order:
         i, j = divmod(int(flat), len(z_pred))
-        if d2[i, j] > gate:
+        if usable[i, j] > gate:
             break
         if used_obs[i] or used_lm[j]:
             continue

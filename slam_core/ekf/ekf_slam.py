@@ -22,9 +22,10 @@ import numpy as np
 from slam_core.ekf.association import CHI2_2_99, CHI2_2_9999, associate
 from slam_core.ekf.landmarks import SPIKE, ExtractorConfig, Features, extract
 from slam_core.ekf.models import inverse_observation, odometry_increment, to_range_bearing
+from slam_core.ekf.scan_odometry import IcpConfig, match_increment
 from slam_core.ekf.state import EkfState
 from slam_core.estimator import Estimate
-from slam_core.geometry import compose, relative, transform_points, wrap_angle
+from slam_core.geometry import compose, inverse, relative, transform_points, wrap_angle
 from slam_core.motion_model import OdometryMotionModel
 from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.scan import Scan
@@ -47,6 +48,10 @@ class EkfConfig:
     update_translation: float = 0.05
     update_rotation: float = 0.05
     direction_tolerance: float = np.radians(40.0)  # corners facing further apart are different
+    reject_ambiguous: bool = False  # drop observations with two landmarks in their gate
+    scan_matching: bool = False  # refine each odometry increment by scan-to-scan ICP
+    scan_matching_noise: float = 0.5  # ICP increments get the motion covariance times this
+    icp: IcpConfig = field(default_factory=IcpConfig)
 
 
 @dataclass(frozen=True)
@@ -72,6 +77,8 @@ class EkfSlam:
         self.last_features = np.zeros((0, 2))  # world frame, every feature of the last update
         self.updates = 0
         self._filter_odom: np.ndarray | None = None
+        self._last_scan: Scan | None = None
+        self.icp_failures = 0
         self._odom: np.ndarray | None = None
         self.landmark_kinds = np.zeros(0, dtype=int)  # SPIKE / CORNER per landmark
         self.landmark_directions = np.zeros(0)  # world bearing of a corner's bisector, NaN for spikes
@@ -92,10 +99,23 @@ class EkfSlam:
                     and abs(moved[2]) < self.config.update_rotation):
                 return False
             u, q = odometry_increment(self._filter_odom, odometry, self.config.motion)
+            if self.config.scan_matching and self._last_scan is not None:
+                u, q = self._scan_matched(u, q, scan)
             self.state.predict(u, q)
         self._filter_odom = odometry
+        self._last_scan = scan
         self._update(scan)
         return True
+
+    def _scan_matched(self, u, q, scan):
+        """The increment refined by ICP of the last update's scan against this one (laser frame)."""
+        offset = np.asarray(self.config.laser_offset, float)
+        guess = compose(compose(inverse(offset), u), offset)
+        laser_u, ok = match_increment(self._last_scan, scan, guess, self.config.icp)
+        if not ok:
+            self.icp_failures += 1
+            return u, q
+        return compose(compose(offset, laser_u), inverse(offset)), q * self.config.scan_matching_noise
 
     @property
     def pose(self) -> np.ndarray:
@@ -141,7 +161,7 @@ class EkfSlam:
         kinds = feats.kinds
         directions = wrap_angle(feats.directions + self.state.mean[2])
         compatible = self._compatible(kinds, directions, self.landmark_kinds, self.landmark_directions)
-        assoc = associate(self.state, z, r, cfg.gate, cfg.new_gate, compatible)
+        assoc = associate(self.state, z, r, cfg.gate, cfg.new_gate, compatible, cfg.reject_ambiguous)
         obs, lms = assoc.matches[:, 0], assoc.matches[:, 1]
         if len(obs):
             pairs = [self.state.innovation(j, z[i], r[i]) for i, j in zip(obs, lms, strict=True)]

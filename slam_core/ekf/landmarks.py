@@ -5,7 +5,7 @@
    than ``r·sin(Δφ)/sin(λ-Δφ) + 3σ`` start a new cluster.
 2. Spikes: a small cluster (table leg, door post, chair leg) standing clearly in
    front of both its neighbours with no other scan point nearby; the landmark
-   is the cluster's mean point.
+   is the post's centre, estimated from the mean point and the post's radius.
 3. Corners: each cluster is split into line segments by iterative end-point fit
    (split-and-merge, Nguyen et al. 2005); two consecutive segments that are long
    enough, meet at a clear angle and are at most a few beams apart give a
@@ -33,13 +33,14 @@ class ExtractorConfig:
     range_sigma: float = 0.01  # sensor range noise, for the breakpoint threshold
     spike_max_width: float = 0.25  # widest object still read as a spike
     spike_min_depth: float = 0.3  # both neighbours must be this much further away
-    spike_min_beams: int = 1
+    spike_min_beams: int = 3  # real 0.5-degree scans; a coarse (1-degree) lidar needs 1
     spike_clearance: float = 0.4  # no other scan point this close (rejects dotted grazing walls)
+    spike_radius: float = 0.0  # expected radius of posts (m), when the scan is too coarse to tell
     spikes: bool = True
     corners: bool = True
     split_threshold: float = 0.04  # max point-to-line distance inside one segment
-    segment_min_points: int = 6
-    segment_min_length: float = 0.3
+    segment_min_points: int = 4
+    segment_min_length: float = 0.15
     corner_min_angle: float = np.radians(50.0)  # smallest acute angle between the two walls
     corner_max_gap: float = 0.15  # intersection to the segments' facing end points
     corner_max_skip: int = 4  # beams of rounded corner allowed between the two segments
@@ -62,7 +63,8 @@ def clusters(scan: Scan, config: ExtractorConfig) -> list[np.ndarray]:
     """Beam indices of runs of contiguous valid points (adaptive breakpoints)."""
     valid = scan.valid
     r, a = scan.ranges, scan.angles
-    x, y = r * np.cos(a), r * np.sin(a)
+    rv = np.where(valid, r, 0.0)
+    x, y = rv * np.cos(a), rv * np.sin(a)
     runs: list[np.ndarray] = []
     current: list[int] = []
     sin_l = np.sin(config.breakpoint_lambda)
@@ -102,7 +104,11 @@ def spikes(scan: Scan, runs: list[np.ndarray], config: ExtractorConfig) -> np.nd
         if near > config.max_range:
             continue
         behind = [not valid[k] or r[k] > near + config.spike_min_depth for k in (first - 1, last + 1)]
-        centre = pts.mean(axis=0)
+        # the visible arc of a round post: its mean lies (1 - π/4)·radius behind the front, the
+        # centre a full radius behind it, so push the mean back by π/4·radius along the beam
+        mean = pts.mean(axis=0)
+        radius = max(0.5 * np.hypot(*(pts[-1] - pts[0])), config.spike_radius)
+        centre = mean + (np.pi / 4) * radius * mean / max(np.hypot(*mean), 1e-12)
         others = np.ones(n, dtype=bool)
         others[run] = False
         others &= valid
