@@ -6,7 +6,15 @@ import numpy as np
 import pytest
 
 from slam_core.datasets import resolve_log
-from slam_core.ekf.landmarks import CORNER, SPIKE, ExtractorConfig, clusters, extract, fit_line, split_segments
+from slam_core.ekf.landmarks import (
+    CORNER,
+    SPIKE,
+    ExtractorConfig,
+    clusters,
+    extract,
+    fit_line,
+    split_segments,
+)
 from slam_core.geometry import relative, transform_points
 from slam_core.io.carmen import laser_records
 from slam_core.scan import Scan
