@@ -2,11 +2,11 @@
 
 The tour drives into rooms and once around the 40 m corridor loop. Bounds checked:
 - robot pose NEES below the 95 % chi-square bound (3 dof) for >= 90 % of updates, i.e. the filter
-  is not overconfident. (The two-sided 95 % interval also holds for seed 3, 90.6 %, but not for
-  seed 4, where NEES falls under the LOWER bound: the wheels' fixed scale error drawn by the
-  simulator makes the pose error smaller than the motion model assumes.)
+  is not overconfident. (The two-sided 95 % interval holds for 89.5 % of updates with seed 3 and
+  only 23.5 % with seed 4, where NEES falls under the LOWER bound: the filter is conservative,
+  the pose error is smaller than the default motion and observation noise assume.)
 - every table leg is mapped at most once (no duplicates within 0.5 m of one leg);
-- every mapped leg lies within LEG_ERROR_BOUND of the true leg, and most legs are mapped.
+- every mapped leg lies within LEG_ERROR_BOUND of the true leg, and at least half the legs are mapped.
 """
 
 import numpy as np
@@ -69,7 +69,8 @@ def test_legs_are_mapped_once_and_accurately(house_run):
     assert per_leg.max() <= 1, f"duplicate landmarks for legs {np.flatnonzero(per_leg > 1)}"
     errors = d.min(axis=1)[close]
     assert errors.max() < LEG_ERROR_BOUND
-    assert close.sum() >= 0.6 * len(legs)
+    # legs within spike_clearance (0.4 m) of a wall (desks against walls) cannot be spikes by design
+    assert close.sum() >= 0.5 * len(legs)
 
 
 def test_final_pose_beats_odometry(house_run):
