@@ -24,6 +24,7 @@ from app.streaming.hub import Hub
 from app.worker.shared_map import MapSnapshot
 from app.worker.supervisor import WorkerSupervisor
 from slam_core.occupancy_grid import OccupancyGrid
+from slam_core.sim.world import load_world
 
 log = logging.getLogger(__name__)
 
@@ -67,12 +68,14 @@ class Runtime:
     async def start(self) -> None:
         self._loop = asyncio.get_running_loop()
         s = self.settings
+        start = (0.0, 0.0, 0.0)
         if s.simulation:
             self.sim = await asyncio.to_thread(start_simulator, s.world, s.seed)
             port, slot = self.sim.port, self.sim.scans
+            start = load_world(s.world).start  # map frame = world frame in simulation
         else:
             port, slot = s.serial_port, None
-        self.supervisor = WorkerSupervisor(s, port, slot, self._from_relay)
+        self.supervisor = WorkerSupervisor(s, port, slot, self._from_relay, start)
         self.supervisor.start()
         for coro in (self._stream_ticker(), self._map_pump(), self._status_ticker(), self.navigator.run()):
             self._tasks.append(asyncio.create_task(coro))

@@ -81,3 +81,8 @@ def make_estimator(mode: str, settings, checkpoint: Checkpoint | None):
     if mode == "mapping":
         return OdometryMapper(settings.resolution, grid)
     raise ModeUnavailable(f"mode {mode!r} is not available yet in this build")
+
+
+def available_modes() -> tuple[str, ...]:
+    """Modes this build can run (the server refuses the others with a reason)."""
+    return ("mapping",)

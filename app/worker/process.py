@@ -47,6 +47,7 @@ class WorkerSpec:
     shm_name: str
     port: str
     restart: int = 0
+    initial_pose: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
 
 def put_newest(q, item) -> None:
@@ -78,7 +79,8 @@ class Worker:
         self.mode = checkpoint.mode if checkpoint else s.mode
         self.mapping = checkpoint.mapping if checkpoint else True
         self.map_name = checkpoint.map_name if checkpoint else None
-        self.pose = checkpoint.pose.copy() if checkpoint else np.zeros(3)
+        self.pose = checkpoint.pose.copy() if checkpoint else np.array(spec.initial_pose, float)
+        checkpoint = checkpoint or Checkpoint(self.mode, self.pose.copy())
         try:
             self.estimator = make_estimator(self.mode, s, checkpoint)
         except ModeUnavailable as exc:

@@ -53,11 +53,12 @@ class WorkerSupervisor:
     """Start/stop the worker; ``on_message(dict)`` is called from the relay thread for each message."""
 
     def __init__(self, settings: Settings, port: str, scan_slot: ScanSlot | None,
-                 on_message: Callable[[dict], None]):
+                 on_message: Callable[[dict], None], initial_pose=(0.0, 0.0, 0.0)):
         self.settings = settings
         self.port = port
         self.scan_slot = scan_slot
         self.on_message = on_message
+        self.initial_pose = tuple(float(v) for v in initial_pose)
         self.ctx = mp.get_context("spawn")
         self.shared_map = SharedMap(settings.map_capacity_cells, settings.tile_size, create=True)
         self.health = WorkerHealth()
@@ -79,7 +80,7 @@ class WorkerSupervisor:
             self._commands = self.ctx.Queue(COMMANDS_MAX)
             self._states = self.ctx.Queue(STATES_MAX)
             spec = WorkerSpec(self.settings.model_dump(), self.shared_map.name, self.port,
-                              self.health.restarts)
+                              self.health.restarts, self.initial_pose)
             proc = self.ctx.Process(target=worker_main, name="homebot-worker", daemon=True,
                                     args=(spec, self._commands, self._states, self.scan_slot))
             proc.start()
