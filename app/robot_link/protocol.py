@@ -242,7 +242,7 @@ class FrameDecoder:
             start = buf.find(SYNC, pos)
             if start < 0:
                 # Keep a trailing first SYNC byte: its partner may come in the next chunk.
-                keep = 1 if n and buf[-1] == SYNC[0] else 0
+                keep = 1 if pos < n and buf[-1] == SYNC[0] else 0
                 self.stats.bytes_skipped += n - keep - pos
                 pos = n - keep
                 break
@@ -288,7 +288,9 @@ class FrameDecoder:
         return None
 
     def _reject(self, reason: str) -> None:
+        """Count a rejected candidate and skip its first byte (the caller resumes after it)."""
         self.stats.rejected[reason] += 1
+        self.stats.bytes_skipped += 1
 
     def _in_sequence(self, frame: Frame) -> bool:
         kind = frame.frame_type
@@ -299,7 +301,7 @@ class FrameDecoder:
                 run = self._stale_run.get(kind, 0) + 1
                 if run <= STALE_BEFORE_RESTART:
                     self._stale_run[kind] = run
-                    self._reject("duplicate" if d == 0 else "out_of_order")
+                    self.stats.rejected["duplicate" if d == 0 else "out_of_order"] += 1
                     return False
                 self.stats.stream_restarts += 1
             else:

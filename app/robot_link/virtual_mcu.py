@@ -96,10 +96,13 @@ class VirtualMCU:
     """A wheel source behind a pty that speaks the robot-link protocol (see module doc).
 
     ``clock`` gives the MCU time in seconds (default: seconds since :meth:`start`);
-    frames carry it as wrapping microseconds. With ``command_timeout`` (s) the MCU stops
-    the wheels when no velocity command arrived for that long after the last one, as
-    firmware should. ``link``, if given, is a symlink created to the slave device, so a
-    restarted MCU can be found again under the same name (like ``/dev/serial/by-id``).
+    frames carry it as wrapping microseconds. When the wheel source runs on simulated time
+    (faster or slower than the wall clock) pass the simulator's clock here, or the host
+    will see wheels turning implausibly fast for the elapsed MCU time. With
+    ``command_timeout`` (s) the MCU stops the wheels when no velocity command arrived for
+    that long after the last one, as firmware should. ``link``, if given, is a symlink
+    created to the slave device, so a restarted MCU can be found again under the same
+    name (like ``/dev/serial/by-id``).
     """
 
     def __init__(
@@ -217,7 +220,9 @@ class VirtualMCU:
             now = time.monotonic()
             if now >= next_send:
                 self._send_encoder_frame()
-                next_send = max(next_send + self.period, now)
+                next_send += self.period
+                if next_send < now:  # fell behind: skip the missed slots rather than burst
+                    next_send = now + self.period
             ready, _, _ = select.select([self._master], [], [], max(0.0, next_send - time.monotonic()))
             if ready:
                 try:
