@@ -42,9 +42,14 @@ class Client:
         self.slots[kind] = frame
         self.wake.set()
 
-    def offer_map(self, delta: bytes | None) -> None:
-        """A map delta (or ``None`` for a full frame); see the module docstring."""
+    def offer_map(self, delta: bytes | None, empty: bool = False) -> None:
+        """A map delta (or ``None`` for a full frame); see the module docstring.
+
+        An ``empty`` delta (no tiles: the map is unchanged) never displaces a pending frame.
+        """
         pending = self.slots.get("map")
+        if empty and pending is not None:
+            return
         if delta is None or pending is not None:
             if pending is not None and pending is not FULL_MAP:
                 self.dropped += 1
@@ -106,10 +111,10 @@ class Hub:
         for client in list(self.clients):
             client.offer(kind, text)
 
-    def publish_map(self, delta: bytes | None) -> None:
+    def publish_map(self, delta: bytes | None, empty: bool = False) -> None:
         """A map delta frame, or ``None`` when every client needs the full map."""
         for client in list(self.clients):
-            client.offer_map(delta)
+            client.offer_map(delta, empty)
 
     async def close_all(self) -> None:
         for client in list(self.clients):
