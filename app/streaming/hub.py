@@ -23,6 +23,11 @@ log = logging.getLogger(__name__)
 FULL_MAP = object()  # slot marker: send the current full map frame
 
 
+def compact(message: dict) -> str:
+    """JSON as sent on the socket: no spaces, ``type`` first."""
+    return json.dumps(message, separators=(",", ":"))
+
+
 class Client:
     """One websocket and its slots (at most one pending frame per kind)."""
 
@@ -107,7 +112,7 @@ class Hub:
         """Send ``message`` (with ``type`` = ``kind``) to every client, newest-wins per kind."""
         if not self.clients:
             return
-        text = json.dumps({"type": kind, **message}, separators=(",", ":"))
+        text = compact({"type": kind, **message})
         for client in list(self.clients):
             client.offer(kind, text)
 
