@@ -4,6 +4,8 @@ lidar on it (independent of the localizer's distance transform) and a drifting o
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 
 from slam_core.geometry import compose, relative, wrap_angle
@@ -28,10 +30,10 @@ SIZE = (10.0, 7.0)
 
 
 def occupied_mask() -> np.ndarray:
-    nx, ny = int(round(SIZE[0] / RES)), int(round(SIZE[1] / RES))
+    nx, ny = round(SIZE[0] / RES), round(SIZE[1] / RES)
     mask = np.zeros((ny, nx), bool)
     for x0, y0, x1, y1 in WALLS:
-        mask[int(round(y0 / RES)):int(round(y1 / RES)), int(round(x0 / RES)):int(round(x1 / RES))] = True
+        mask[round(y0 / RES):round(y1 / RES), round(x0 / RES):round(x1 / RES)] = True
     return mask
 
 
@@ -103,12 +105,18 @@ def tour_poses(start: int = 0, step: float = 0.05, turn_step: float = np.radians
 
 
 def drifting_odometry(truth: np.ndarray, rng: np.random.Generator, scale=(0.03, 0.03),
-                      noise=(0.01, 0.01)) -> np.ndarray:
-    """Odometry integrated from the true increments with scale errors and random noise."""
+                      noise=(0.01, 0.01), teleport: int | None = None) -> np.ndarray:
+    """Odometry integrated from the true increments with scale errors and random noise.
+
+    The wheels do not see the robot carried from ``truth[teleport - 1]`` to ``truth[teleport]``.
+    """
     s_t = 1 + rng.normal(0, scale[0])
     s_r = 1 + rng.normal(0, scale[1])
     odom = [np.array([0.0, 0.0, 0.0])]
-    for a, b in zip(truth[:-1], truth[1:], strict=True):
+    for i, (a, b) in enumerate(itertools.pairwise(truth)):
+        if i + 1 == teleport:
+            odom.append(odom[-1])
+            continue
         d = relative(a, b)
         d[:2] *= s_t * (1 + rng.normal(0, noise[0]))
         d[2] = d[2] * s_r + rng.normal(0, noise[1]) * abs(d[2]) + rng.normal(0, 0.002)

@@ -22,6 +22,7 @@ from numba import prange
 from slam_core.jit import njit
 from slam_core.localization.beams import BeamSelection
 from slam_core.localization.known_map import KnownMap
+from slam_core.localization.parallel import PARALLEL_MIN_PARTICLES
 
 #: Smallest ray-march step, in cells; the half-cell step can graze past a cell corner.
 MIN_STEP_CELLS = 0.5
@@ -66,8 +67,7 @@ def cast_ray(sx, sy, c, s, distance, origin_x, origin_y, res, range_max):
     return range_max
 
 
-@njit(parallel=True)
-def _score(particles, laser, angles, ranges, max_reading, distance, origin_x, origin_y, res,
+def _score_body(particles, laser, angles, ranges, max_reading, distance, origin_x, origin_y, res,
            range_max, z_hit, z_short, z_max, z_rand, sigma, lam, out):
     n = particles.shape[0]
     nb = angles.shape[0]
@@ -99,6 +99,15 @@ def _score(particles, laser, angles, ranges, max_reading, distance, origin_x, or
         out[i] = total
 
 
+
+#: Compiled twice: threads pay off only for large particle sets (and hurt on a busy machine).
+_score_serial = njit(_score_body)
+_score_parallel = njit(parallel=True)(_score_body)
+
+
+def _score(n_particles):
+    return _score_parallel if n_particles >= PARALLEL_MIN_PARTICLES else _score_serial
+
 class BeamModel:
     """Scores particles ``(n, 3)`` against a scan by ray casting in a :class:`KnownMap`."""
 
@@ -115,7 +124,7 @@ class BeamModel:
         p = self.params
         m = self.map
         out = np.empty(len(particles))
-        _score(particles, np.asarray(laser_pose, np.float64), beams.angles, beams.ranges,
+        _score(len(particles))(particles, np.asarray(laser_pose, np.float64), beams.angles, beams.ranges,
                beams.max_reading, m.distance, m.origin[0], m.origin[1], m.resolution,
                beams.range_max, p.z_hit, p.z_short, p.z_max, p.z_rand, p.sigma_hit, p.lambda_short, out)
         return out, len(beams)

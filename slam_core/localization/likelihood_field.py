@@ -21,6 +21,7 @@ from numba import prange
 from slam_core.jit import njit
 from slam_core.localization.beams import BeamSelection
 from slam_core.localization.known_map import KnownMap
+from slam_core.localization.parallel import PARALLEL_MIN_PARTICLES
 
 
 @dataclass(frozen=True)
@@ -38,8 +39,7 @@ class LikelihoodFieldParams:
                              f"max_dist > 0; got {self}")
 
 
-@njit(parallel=True)
-def _score(particles, laser, bx, by, table, outside, origin_x, origin_y, inv_res, out):
+def _score_body(particles, laser, bx, by, table, outside, origin_x, origin_y, inv_res, out):
     n = particles.shape[0]
     ny, nx = table.shape
     nb = bx.shape[0]
@@ -65,6 +65,15 @@ def _score(particles, laser, bx, by, table, outside, origin_x, origin_y, inv_res
                 total += outside
         out[i] = total
 
+
+
+#: Compiled twice: threads pay off only for large particle sets (and hurt on a busy machine).
+_score_serial = njit(_score_body)
+_score_parallel = njit(parallel=True)(_score_body)
+
+
+def _score(n_particles):
+    return _score_parallel if n_particles >= PARALLEL_MIN_PARTICLES else _score_serial
 
 class LikelihoodFieldModel:
     """Scores particles ``(n, 3)`` against a scan by the likelihood field of a :class:`KnownMap`."""
@@ -99,6 +108,6 @@ class LikelihoodFieldModel:
         table, outside = self._table(beams.range_max)
         out = np.empty(len(particles))
         m = self.map
-        _score(particles, np.asarray(laser_pose, np.float64), bx, by, table, outside,
+        _score(len(particles))(particles, np.asarray(laser_pose, np.float64), bx, by, table, outside,
                m.origin[0], m.origin[1], 1.0 / m.resolution, out)
         return out, len(bx)

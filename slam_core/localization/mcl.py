@@ -145,6 +145,7 @@ class MonteCarloLocalizer:
     def _reset(self, particles: np.ndarray) -> None:
         self.particles = np.ascontiguousarray(particles, dtype=np.float64)
         self.weights = np.full(len(particles), 1.0 / len(particles))
+        self._fresh = np.zeros(len(particles), bool)
         self.w_slow = 0.0
         self.w_fast = 0.0
         self._estimate = None
@@ -178,8 +179,13 @@ class MonteCarloLocalizer:
                                     self.w_slow, self.w_fast, 0.0, 0)
             self._estimate = None
             return
-        # Augmented MCL averages a per-beam (geometric mean) likelihood, independent of beam count.
-        w_avg = float(self.weights @ np.exp(log_lik / used))
+        # Augmented MCL averages a per-beam (geometric mean) likelihood, independent of beam count,
+        # over the particles that were not just injected: random guesses would otherwise keep the
+        # average low and the injection going after the filter has recovered.
+        kept = self.weights * ~self._fresh
+        if kept.sum() <= 0.0:
+            kept = self.weights
+        w_avg = float(kept @ np.exp(log_lik / used) / kept.sum())
         if self.w_slow == 0.0:
             self.w_slow = self.w_fast = w_avg
         else:
@@ -203,13 +209,14 @@ class MonteCarloLocalizer:
         idx = low_variance_resample(self.weights, self.rng, cfg.max_particles)
         self.rng.shuffle(idx)  # KLD keeps a prefix: it must be a fair subsample
         drawn = self.particles[idx]
-        if injection > 0.0:
-            fresh = self.rng.random(len(drawn)) < injection
+        fresh = self.rng.random(len(drawn)) < injection
+        if fresh.any():
             drawn[fresh] = self.map.sample_free_poses(int(fresh.sum()), self.rng)
         keys = pose_bins(drawn, cfg.kld_xy_bin, cfg.kld_theta_bin)
         n = adaptive_count(keys, cfg.kld_epsilon, cfg.kld_delta, cfg.min_particles, cfg.max_particles)
         self.particles = np.ascontiguousarray(drawn[:n])
         self.weights = np.full(n, 1.0 / n)
+        self._fresh = fresh[:n]
 
     # -- what it publishes ----------------------------------------------------------------
     def main_cluster(self) -> Cluster:
