@@ -37,7 +37,7 @@ def effective_sample_size(weights) -> float:
     return float(1.0 / np.dot(w, w))
 
 
-def weights_from_log(log_weights) -> np.ndarray:
+def normalized(log_weights) -> np.ndarray:
     """Normalized weights from log-weights, computed stably (max subtracted first)."""
     lw = np.asarray(log_weights, dtype=np.float64)
     if lw.ndim != 1 or lw.size == 0:
@@ -60,15 +60,15 @@ def _systematic(cumulative, u0, n, out):
         out[j] = i
 
 
-def low_variance_resample(weights, rng: np.random.Generator, n: int | None = None) -> np.ndarray:
-    """Indices of ``n`` (default: as many as weights) particles drawn by systematic resampling.
+def low_variance_resample(weights, rng: np.random.Generator, count: int | None = None) -> np.ndarray:
+    """Indices of ``count`` (default: as many as weights) particles drawn by systematic resampling.
 
     Indices come out sorted ascending; shuffle them if their order matters.
     """
     w = normalized_weights(weights)
-    n = len(w) if n is None else int(n)
+    n = len(w) if count is None else int(count)
     if n < 1:
-        raise ValueError(f"need at least one particle to draw, got n={n}")
+        raise ValueError(f"need at least one particle to draw, got count={n}")
     cumulative = np.cumsum(w)
     cumulative[-1] = 1.0  # guard against round-off leaving the last pointer unmatched
     out = np.empty(n, np.int64)

@@ -3,7 +3,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from slam_core.resampling import effective_sample_size, low_variance_resample, weights_from_log
+from slam_core.resampling import effective_sample_size, low_variance_resample, normalized
 
 weight_lists = st.lists(st.floats(0.0, 10.0, allow_nan=False), min_size=1, max_size=40).filter(
     lambda w: sum(w) > 1e-6)
@@ -55,10 +55,10 @@ def test_bad_weights_are_refused_with_reason():
         effective_sample_size([0.0, 0.0])
     with pytest.raises(ValueError, match="weight 1"):
         low_variance_resample([1.0, np.nan], np.random.default_rng(0))
-    with pytest.raises(ValueError, match="n=0"):
+    with pytest.raises(ValueError, match="count=0"):
         low_variance_resample([1.0], np.random.default_rng(0), 0)
 
 
-def test_weights_from_log_survive_huge_log_weights():
-    w = weights_from_log([-1e4, -1e4 + np.log(3.0)])
+def test_normalized_survive_huge_log_weights():
+    w = normalized([-1e4, -1e4 + np.log(3.0)])
     assert np.allclose(w, [0.25, 0.75])
