@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 from pathlib import Path
 
 import numpy as np
@@ -41,7 +42,7 @@ def _numbers(text: str, count: int, what: str) -> tuple[float, ...]:
     except ValueError:
         values = ()
     if len(values) != count or not all(np.isfinite(values)):
-        raise ValueError(f"{what} must be {count} comma-separated numbers, got {text!r}")
+        raise argparse.ArgumentTypeError(f"{what} must be {count} comma-separated numbers, got {text!r}")
     return values
 
 
