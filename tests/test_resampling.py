@@ -23,12 +23,12 @@ def test_systematic_counts_are_floor_or_ceil_of_expected(weights, seed):
     assert np.all(counts[w == 0] == 0)
 
 
-@settings(max_examples=30, deadline=None)
+@settings(max_examples=15, deadline=None)
 @given(weight_lists, st.integers(1, 60))
 def test_systematic_is_unbiased(weights, n):
     w = np.array(weights) / np.sum(weights)
     rng = np.random.default_rng(1)
-    trials = 4000
+    trials = 2000
     counts = np.zeros(len(w))
     for _ in range(trials):
         counts += np.bincount(low_variance_resample(w, rng, n), minlength=len(w))
