@@ -3,11 +3,13 @@
 1. Time per filter update (motion sample + sensor model + weights + resampling) for a fixed
    particle count (KLD pinned: min = max) with a 360-beam simulated lidar scan of which 60
    beams are used, in the shipped flat; likelihood field (and beam model up to 5,000).
-2. Localization error when a log is replayed against a map built from it: relation error
+2. Global localization along the simulated house tour (recorded as a CARMEN log with
+   ``homebot sim record``'s writer) against the house's ground-truth map: error vs the truth.
+3. Localization error when a log is replayed against a map built from it: relation error
    (Kümmerle 2009) of the replayed trajectory and its deviation from the poses the map was
    built with (the map frame), plus the time to the first "localized".
 
-    python benchmarks/localization.py [--map MAP.yaml] [--log mit-csail] [--skip-replay]
+    python benchmarks/localization.py [--map MAP.yaml] [--log mit-csail] [--skip-replay] [--skip-sim]
 
 Without --map, the MIT CSAIL map is built from the log's raw odometry (``homebot map``).
 """
@@ -35,7 +37,8 @@ from slam_core.localization import MclConfig, MonteCarloLocalizer
 from slam_core.localization.replay import replay_log
 from slam_core.pipelines.odometry_mapping import map_from_odometry
 from slam_core.sim.ground_truth import ground_truth_map
-from slam_core.sim.simulator import Simulator
+from slam_core.sim.record import record_tour
+from slam_core.sim.simulator import SimConfig, Simulator
 from slam_core.sim.world import load_world
 
 COUNTS = (500, 5000, 50000)
@@ -75,6 +78,31 @@ def update_costs() -> None:
                 continue
             first, per, cpu = time_updates(grid, frames, n, sensor)
             print(f"{n:>10} {sensor:>17} {first:>11.1f} {per:>16.2f} {cpu:>9.2f}")
+
+
+def simulated_replay(world_name: str, particles: tuple[int, int]) -> None:
+    world = load_world(world_name)
+    with tempfile.TemporaryDirectory() as tmp:
+        rec = record_tour(world, tmp, seed=0, config=SimConfig(sensing_hz=10.0))
+        cfg = MclConfig(min_particles=particles[0], max_particles=particles[1], max_beams=BEAMS_USED)
+        run = replay_log(rec.log, load_map(rec.map_yaml), cfg)
+        truth = Trajectory.load(rec.ground_truth)
+    poses = run.trajectory.poses
+    d = np.hypot(*(poses[:, :2] - truth.poses[:, :2]).T)
+    a = np.degrees(np.abs(wrap_angle(poses[:, 2] - truth.poses[:, 2])))
+    k = run.first_localized
+    travel = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(truth.poses[:, :2], axis=0).T))])
+    print(f"{world_name} tour, global start, {particles[0]}..{particles[1]} particles: {len(d)} scans, "
+          f"{travel[-1]:.0f} m, {run.wall_seconds:.1f} s wall, median "
+          f"{1e3 * np.median(run.update_seconds):.1f} ms per update")
+    if k is None:
+        print("never localized")
+        return
+    after = slice(k, None)
+    print(f"first localized after {travel[k]:.1f} m ({run.seconds_to_localized:.1f} s); from then on: "
+          f"error median {100 * np.median(d[after]):.1f} cm, p95 {100 * np.percentile(d[after], 95):.1f} cm, "
+          f"heading median {np.median(a[after]):.2f} deg, p95 {np.percentile(a[after], 95):.2f} deg; "
+          f"localized flag in {100 * run.localized[after].mean():.0f}% of those scans")
 
 
 def replay(map_path: Path | None, log_name: str, particles: tuple[int, int]) -> None:
@@ -133,12 +161,15 @@ def main() -> None:
     parser.add_argument("--particles", default="300,5000", help="MIN,MAX particles for the replay")
     parser.add_argument("--skip-replay", action="store_true")
     parser.add_argument("--skip-updates", action="store_true")
+    parser.add_argument("--skip-sim", action="store_true")
     args = parser.parse_args()
     t = time.perf_counter()
     if not args.skip_updates:
         update_costs()
+    lo, hi = (int(v) for v in args.particles.split(","))
+    if not args.skip_sim:
+        simulated_replay("house", (lo, hi))
     if not args.skip_replay:
-        lo, hi = (int(v) for v in args.particles.split(","))
         replay(args.map, args.log, (lo, hi))
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     print(f"total {time.perf_counter() - t:.1f} s, peak memory {peak:.0f} MB")

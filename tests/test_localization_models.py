@@ -183,3 +183,44 @@ def test_main_cluster_picks_the_heavier_blob_and_averages_heading_across_pi():
     assert c.pose[:2] == pytest.approx([1, 2], abs=0.02)
     assert abs(abs(c.pose[2]) - np.pi) < 0.02
     assert np.sqrt(np.diag(c.covariance)) == pytest.approx([0.05, 0.05, 0.05], rel=0.2)
+
+
+def test_mcl_public_api_on_a_small_room():
+    from slam_core.localization import MclConfig, MonteCarloLocalizer
+
+    grid, occ = room_grid(0.05)
+    cfg = MclConfig(min_particles=100, max_particles=2000)
+    mcl = MonteCarloLocalizer(grid, cfg, rng=np.random.default_rng(0))
+    km = mcl.map
+    assert len(mcl.particles) == 2000 and km.is_free(mcl.particles[:, :2]).all()
+    assert mcl.occupancy_map() is grid
+    assert not mcl.estimate().localized
+    truth = np.array([0.5, 0.3, 0.4])
+    angles = np.linspace(-np.pi, np.pi, 180, endpoint=False)
+
+    def scan_at(pose):
+        r = [march_range(occ, km.origin, 0.05, pose[0], pose[1], pose[2] + a, 8.0) for a in angles]
+        return Scan(angles, np.array(r), 0.05, 8.0)
+
+    mcl.set_pose(truth, np.diag([0.1, 0.1, 0.1]) ** 2)
+    assert mcl.step(np.zeros(3), scan_at(truth))
+    assert not mcl.step([0.01, 0.0, 0.0], scan_at(truth))  # below update_min_d: no update
+    step = 0.06  # half of update_min_d and a bit: every second step updates
+    for k in range(1, 15):
+        pose = truth + k * step * np.array([np.cos(truth[2]), np.sin(truth[2]), 0.0])
+        assert mcl.step([k * step, 0.0, 0.0], scan_at(pose)) == (k % 2 == 0)
+    e = mcl.estimate()
+    assert e.localized
+    assert np.hypot(*(e.pose[:2] - pose[:2])) < 0.05 and abs(e.pose[2] - pose[2]) < np.radians(3)
+    assert e.covariance.shape == (3, 3) and e.weights.sum() == pytest.approx(1.0)
+    assert len(e.particles) == len(e.weights) < 2000  # KLD shrank the set
+    with pytest.raises(ValueError, match="covariance"):
+        mcl.set_pose(truth, np.eye(2))
+    with pytest.raises(ValueError, match="pose must be three"):
+        mcl.set_pose([1.0, np.nan, 0.0])
+    with pytest.raises(ValueError, match="odometry"):
+        mcl.step([0.0, 0.0], scan_at(truth))
+    with pytest.raises(ValueError, match="sensor_model"):
+        MclConfig(sensor_model="sonar")
+    with pytest.raises(ValueError, match="min_particles"):
+        MclConfig(min_particles=10, max_particles=5)

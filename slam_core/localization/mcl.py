@@ -67,8 +67,10 @@ class MclConfig:
     localized_weight: float = 0.9
     localized_xy_std: float = 0.15
     localized_theta_std: float = np.radians(8.0)
-    #: ... and the filter is not injecting more than this fraction of random particles.
+    #: ... and the filter is not injecting more than this fraction of random particles,
+    #: and has corrected at least this many times since it was (re)initialized.
     localized_max_injection: float = 0.3
+    localized_min_updates: int = 5
 
     def __post_init__(self):
         if not 1 <= self.min_particles <= self.max_particles:
@@ -146,6 +148,7 @@ class MonteCarloLocalizer:
         self.particles = np.ascontiguousarray(particles, dtype=np.float64)
         self.weights = np.full(len(particles), 1.0 / len(particles))
         self._fresh = np.zeros(len(particles), bool)
+        self.updates_since_reset = 0
         self.w_slow = 0.0
         self.w_fast = 0.0
         self._estimate = None
@@ -168,6 +171,7 @@ class MonteCarloLocalizer:
             self.particles = cfg.motion.sample(self.particles, self._last_odom, odom, self.rng)
         self._last_odom = odom
         self._correct(scan)
+        self.updates_since_reset += 1
         return True
 
     def _correct(self, scan: Scan) -> None:
@@ -231,7 +235,8 @@ class MonteCarloLocalizer:
             xy_std = float(np.sqrt(max(c.covariance[0, 0], c.covariance[1, 1])))
             localized = (c.weight >= cfg.localized_weight and xy_std <= cfg.localized_xy_std
                          and np.sqrt(c.covariance[2, 2]) <= cfg.localized_theta_std
-                         and self.status.injection <= cfg.localized_max_injection)
+                         and self.status.injection <= cfg.localized_max_injection
+                         and self.updates_since_reset >= cfg.localized_min_updates)
             self._estimate = Estimate(pose=c.pose, covariance=c.covariance, particles=self.particles,
                                       weights=self.weights, localized=bool(localized))
         return self._estimate
