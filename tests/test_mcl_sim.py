@@ -61,3 +61,14 @@ def test_tracking_from_a_known_pose(flat):
     assert np.median(errors_xy) < 0.05
     assert np.median(errors_th) < np.radians(2.0)
     assert np.max(errors_xy) < 0.2
+
+
+def test_tracking_with_the_beam_model(flat):
+    world, grid = flat
+    _, pose = tour_from(world, 0)
+    cfg = MclConfig(min_particles=200, max_particles=1000, sensor_model="beam", max_beams=30)
+    mcl = MonteCarloLocalizer(grid, cfg, rng=np.random.default_rng(7), initial_pose=pose,
+                              initial_covariance=np.diag([0.05, 0.05, 0.05]) ** 2)
+    ups = Drive(world, mcl, 7).leg(0, 10.0)
+    assert np.median([u.error_xy for u in ups]) < 0.05
+    assert np.median([u.error_theta for u in ups]) < np.radians(2.0)
