@@ -11,7 +11,7 @@ from slam_core.sim.world import load_world
 SEEDS = range(10)
 TRAVEL = 10.0
 #: Moderate particle counts keep these tests fast.
-CONFIG = MclConfig(min_particles=300, max_particles=6000)
+CONFIG = MclConfig(min_particles=300, max_particles=12000)
 #: Recovery counts once the estimate stayed right for this many consecutive updates.
 STABLE_UPDATES = 5
 
