@@ -196,10 +196,10 @@ def test_mcl_public_api_on_a_small_room():
     assert mcl.occupancy_map() is grid
     assert not mcl.estimate().localized
     truth = np.array([0.5, 0.3, 0.4])
-    angles = np.linspace(-np.pi, np.pi, 180, endpoint=False)
+    angles = np.linspace(-np.pi, np.pi, 90, endpoint=False)
 
     def scan_at(pose):
-        r = [march_range(occ, km.origin, 0.05, pose[0], pose[1], pose[2] + a, 8.0) for a in angles]
+        r = [march_range(occ, km.origin, 0.05, pose[0], pose[1], pose[2] + a, 8.0, 0.005) for a in angles]
         return Scan(angles, np.array(r), 0.05, 8.0)
 
     mcl.set_pose(truth, np.diag([0.1, 0.1, 0.1]) ** 2)
