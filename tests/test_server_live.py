@@ -192,3 +192,28 @@ def test_killed_worker_restarts_and_the_map_is_still_there(server):
     assert math.hypot(pose_after["x"] - pose_before["x"], pose_after["y"] - pose_before["y"]) < 1.0
     with server.client() as c:
         assert c.get("/api/map.png").content[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_switch_to_localization_on_a_saved_map_and_back(server):
+    with server.client() as c:
+        assert c.put("/api/mode", json={"mode": "ekf"}).status_code == 409  # not in this build
+        assert c.post("/api/maps", json={"name": "flat"}).status_code == 201
+        assert c.put("/api/mode", json={"mode": "localization", "map": "nope"}).status_code == 404
+        r = c.post("/api/maps/flat/load")
+        assert r.status_code == 200, r.text
+        deadline = time.monotonic() + 90
+        while time.monotonic() < deadline:
+            status = c.get("/api/status").json()
+            if status["mode"] == "localization" and status["worker"]["steps"] > 0:
+                break
+            time.sleep(0.5)
+        assert status["mode"] == "localization", status["events"]
+        assert c.post("/api/goal", json={"x": 5.4, "y": 3.75}).status_code == 202
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and c.get("/api/path").json()["state"] == "driving":
+            time.sleep(0.5)
+        status = c.get("/api/status").json()
+        assert status["mode"] == "localization" and status["nav"]["state"] == "arrived", status["nav"]
+        pose, true = status["pose"], status["true_pose"]
+        assert math.hypot(pose["x"] - true[0], pose["y"] - true[1]) < 0.5, (pose, true)
+        assert c.post("/api/mapping/start").json()["mode"] == "mapping"

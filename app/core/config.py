@@ -47,6 +47,8 @@ class Settings(BaseSettings):
     particles: int = Field(30, ge=1, le=2000)
     rbpf_linear_update: float = Field(0.25, gt=0.0)
     rbpf_angular_update: float = Field(0.2, gt=0.0)
+    mcl_min_particles: int = Field(300, ge=10)
+    mcl_max_particles: int = Field(3000, ge=10)
     checkpoint_s: float = Field(5.0, gt=0.0)
     worker_restart_delay_s: float = Field(0.5, ge=0.0)
 

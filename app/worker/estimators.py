@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from slam_core.estimator import Estimate
+from slam_core.localization.mcl import MclConfig, MonteCarloLocalizer
 from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.rbpf.config import RBPFConfig
 from slam_core.rbpf.filter import RBPFSlam
@@ -70,12 +71,17 @@ def make_estimator(mode: str, settings, checkpoint: Checkpoint | None):
         return FrozenMap(grid, pose)
     if mode == "mapping":
         return _rbpf(settings, pose, grid)
+    if mode == "localization":
+        if grid is None or not grid.data.size:
+            raise ModeUnavailable("localization needs a map: load a saved map or map first")
+        config = MclConfig(min_particles=settings.mcl_min_particles, max_particles=settings.mcl_max_particles)
+        return MonteCarloLocalizer(grid, config, rng=np.random.default_rng(settings.seed), initial_pose=pose)
     raise ModeUnavailable(f"mode {mode!r} is not available yet in this build")
 
 
 def available_modes() -> tuple[str, ...]:
     """Modes this build can run (the server refuses the others with a reason)."""
-    return ("mapping",)
+    return ("mapping", "localization")
 
 
 WARM_UP_BEAMS = 90
