@@ -1,0 +1,1 @@
+"""Landmark EKF SLAM: state, extraction, association and the estimator."""

@@ -1,0 +1,210 @@
+"""Point landmarks extracted from one 2D scan: "spikes" and corners.
+
+1. The valid beams are cut into clusters of contiguous points with the adaptive
+   breakpoint detector of Borges & Aldon (2004): consecutive points further apart
+   than ``r·sin(Δφ)/sin(λ-Δφ) + 3σ`` start a new cluster.
+2. Spikes: a small cluster (table leg, door post, chair leg) standing clearly in
+   front of both its neighbours with no other scan point nearby; the landmark
+   is the post's centre, estimated from the mean point and the post's radius.
+3. Corners: each cluster is split into line segments by iterative end-point fit
+   (split-and-merge, Nguyen et al. 2005); two consecutive segments that are long
+   enough, meet at a clear angle and are at most a few beams apart give a
+   corner at the intersection of their total-least-squares lines.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from slam_core.scan import Scan
+
+SPIKE = 0
+CORNER = 1
+
+
+@dataclass(frozen=True)
+class ExtractorConfig:
+    """Tunables of the extractor (metres, radians)."""
+
+    max_range: float = 8.0  # features further away are too uncertain
+    breakpoint_lambda: float = np.radians(10.0)  # Borges & Aldon's worst incidence angle
+    range_sigma: float = 0.01  # sensor range noise, for the breakpoint threshold
+    spike_max_width: float = 0.25  # widest object still read as a spike
+    spike_min_depth: float = 0.3  # both neighbours must be this much further away
+    spike_min_beams: int = 3  # real 0.5-degree scans; a coarse (1-degree) lidar needs 1
+    spike_clearance: float = 0.4  # no other scan point this close (rejects dotted grazing walls)
+    spike_radius: float = 0.0  # expected radius of posts (m), when the scan is too coarse to tell
+    spikes: bool = True
+    corners: bool = True
+    split_threshold: float = 0.04  # max point-to-line distance inside one segment
+    segment_min_points: int = 4
+    segment_min_length: float = 0.15
+    corner_min_angle: float = np.radians(50.0)  # smallest acute angle between the two walls
+    corner_max_gap: float = 0.15  # intersection to the segments' facing end points
+    corner_max_skip: int = 4  # beams of rounded corner allowed between the two segments
+
+
+@dataclass(frozen=True)
+class Features:
+    """Landmarks seen in one scan: sensor-frame points ``(k, 2)``, kinds (SPIKE / CORNER) and,
+    for corners, the sensor-frame bearing of the bisector between the two walls (NaN for spikes)."""
+
+    points: np.ndarray
+    kinds: np.ndarray
+    directions: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.points)
+
+
+def clusters(scan: Scan, config: ExtractorConfig) -> list[np.ndarray]:
+    """Beam indices of runs of contiguous valid points (adaptive breakpoints)."""
+    valid = scan.valid
+    r, a = scan.ranges, scan.angles
+    rv = np.where(valid, r, 0.0)
+    x, y = rv * np.cos(a), rv * np.sin(a)
+    runs: list[np.ndarray] = []
+    current: list[int] = []
+    sin_l = np.sin(config.breakpoint_lambda)
+    for i in range(len(r)):
+        if not valid[i]:
+            if current:
+                runs.append(np.array(current))
+            current = []
+            continue
+        if current:
+            j = current[-1]
+            dphi = abs(a[i] - a[j])
+            limit = r[j] * np.sin(dphi) / max(np.sin(config.breakpoint_lambda - dphi), 1e-3 * sin_l)
+            if np.hypot(x[i] - x[j], y[i] - y[j]) > limit + 3.0 * config.range_sigma:
+                runs.append(np.array(current))
+                current = []
+        current.append(i)
+    if current:
+        runs.append(np.array(current))
+    return runs
+
+
+def spikes(scan: Scan, runs: list[np.ndarray], config: ExtractorConfig) -> np.ndarray:
+    """Mean points ``(k, 2)`` of small clusters standing in front of both neighbours."""
+    r, a = scan.ranges, scan.angles
+    valid = scan.valid
+    n = len(r)
+    out = []
+    for run in runs:
+        first, last = run[0], run[-1]
+        if len(run) < config.spike_min_beams or first == 0 or last == n - 1:
+            continue
+        pts = np.column_stack([r[run] * np.cos(a[run]), r[run] * np.sin(a[run])])
+        if np.hypot(*(pts[-1] - pts[0])) > config.spike_max_width:
+            continue
+        near = r[run].max()
+        if near > config.max_range:
+            continue
+        behind = [not valid[k] or r[k] > near + config.spike_min_depth for k in (first - 1, last + 1)]
+        # the visible arc of a round post: its mean lies (1 - π/4)·radius behind the front, the
+        # centre a full radius behind it, so push the mean back by π/4·radius along the beam
+        mean = pts.mean(axis=0)
+        radius = max(0.5 * np.hypot(*(pts[-1] - pts[0])), config.spike_radius)
+        centre = mean + (np.pi / 4) * radius * mean / max(np.hypot(*mean), 1e-12)
+        others = np.ones(n, dtype=bool)
+        others[run] = False
+        others &= valid
+        gaps = np.hypot(r[others] * np.cos(a[others]) - centre[0], r[others] * np.sin(a[others]) - centre[1])
+        if all(behind) and (len(gaps) == 0 or gaps.min() > config.spike_clearance):
+            out.append(centre)
+    return np.array(out).reshape(-1, 2)
+
+
+def split_segments(points: np.ndarray, threshold: float) -> list[tuple[int, int]]:
+    """Iterative end-point fit: index ranges ``[a, b]`` (inclusive, sharing split points)."""
+    out = []
+    stack = [(0, len(points) - 1)]
+    while stack:
+        a, b = stack.pop()
+        if b - a < 2:
+            out.append((a, b))
+            continue
+        p, q = points[a], points[b]
+        d = q - p
+        norm = np.hypot(*d)
+        seg = points[a + 1:b] - p
+        dist = np.abs(seg[:, 0] * d[1] - seg[:, 1] * d[0]) / max(norm, 1e-12)
+        k = int(np.argmax(dist))
+        if dist[k] > threshold:
+            split = a + 1 + k
+            stack.append((split, b))
+            stack.append((a, split))
+        else:
+            out.append((a, b))
+    return sorted(out)
+
+
+def fit_line(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Total least squares line: ``(centroid, unit direction)``."""
+    c = points.mean(axis=0)
+    _, vecs = np.linalg.eigh(np.cov((points - c).T))
+    return c, vecs[:, 1]
+
+
+def corners(scan: Scan, runs: list[np.ndarray], config: ExtractorConfig) -> tuple[np.ndarray, np.ndarray]:
+    """Intersections ``(k, 2)`` of consecutive wall segments meeting at a clear angle, and the
+    direction ``(k,)`` of the bisector from the corner between the two walls."""
+    r, a = scan.ranges, scan.angles
+    out, directions = [], []
+    for run in runs:
+        if len(run) < 2 * config.segment_min_points - 1:
+            continue
+        pts = np.column_stack([r[run] * np.cos(a[run]), r[run] * np.sin(a[run])])
+        segs = [(a0, b0) for a0, b0 in split_segments(pts, config.split_threshold)
+                if _long_enough(pts[a0:b0 + 1], config)]
+        for (a0, b0), (a1, b1) in zip(segs, segs[1:], strict=False):
+            if a1 - b0 > config.corner_max_skip:
+                continue
+            first, second = pts[a0:b0 + 1], pts[a1:b1 + 1]
+            c0, d0 = fit_line(first)
+            c1, d1 = fit_line(second)
+            cross = d0[0] * d1[1] - d0[1] * d1[0]
+            angle = np.arccos(np.clip(abs(d0 @ d1), 0.0, 1.0))  # 0..90 deg between the lines
+            if angle < config.corner_min_angle:
+                continue
+            t = ((c1 - c0)[0] * d1[1] - (c1 - c0)[1] * d1[0]) / cross
+            corner = c0 + t * d0
+            if max(np.hypot(*(corner - pts[b0])), np.hypot(*(corner - pts[a1]))) > config.corner_max_gap:
+                continue
+            if np.hypot(*corner) <= config.max_range:
+                out.append(corner)
+                wall0 = _unit(first[0] - corner)
+                wall1 = _unit(second[-1] - corner)
+                bisector = wall0 + wall1
+                directions.append(np.arctan2(bisector[1], bisector[0]))
+    return np.array(out).reshape(-1, 2), np.array(directions)
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / max(np.hypot(*v), 1e-12)
+
+
+def _long_enough(points: np.ndarray, config: ExtractorConfig) -> bool:
+    return len(points) >= config.segment_min_points and (
+        np.hypot(*(points[-1] - points[0])) >= config.segment_min_length)
+
+
+def extract(scan: Scan, config: ExtractorConfig | None = None) -> Features:
+    """All spikes and corners of a scan, in the sensor frame."""
+    config = config or ExtractorConfig()
+    runs = clusters(scan, config)
+    parts, kinds, directions = [np.zeros((0, 2))], [np.zeros(0, dtype=int)], [np.zeros(0)]
+    if config.spikes:
+        s = spikes(scan, runs, config)
+        parts.append(s)
+        kinds.append(np.full(len(s), SPIKE))
+        directions.append(np.full(len(s), np.nan))
+    if config.corners:
+        c, d = corners(scan, runs, config)
+        parts.append(c)
+        kinds.append(np.full(len(c), CORNER))
+        directions.append(d)
+    return Features(np.vstack(parts), np.concatenate(kinds).astype(int), np.concatenate(directions))

@@ -1,0 +1,98 @@
+"""Scan-to-scan odometry refinement: point-to-line ICP (Censi 2008, simplified).
+
+Wheel odometry drifts in heading; the scans of two successive updates usually
+pin the increment down much better. :func:`match_increment` starts from the
+odometry increment and minimises ``Σ (nᵢ · (R pᵢ + t - qᵢ))²`` over the rigid
+motion, where ``qᵢ`` is the previous scan's point nearest the moved point
+``pᵢ`` and ``nᵢ`` the normal of the previous scan's surface there (Gauss-Newton,
+small-angle linearisation, a trimmed and shrinking correspondence gate). It
+reports failure (and the caller keeps the odometry) when too few points pair up
+or the fit does not settle.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from slam_core.geometry import transform_points, wrap_angle
+
+
+@dataclass(frozen=True)
+class IcpConfig:
+    max_range: float = 10.0  # ignore points further away
+    stride: int = 2  # use every stride-th beam of the new scan
+    iterations: int = 20
+    gate_start: float = 0.6  # correspondence gate (m) of the first iteration ...
+    gate_end: float = 0.15  # ... shrinking to this
+    trim: float = 0.8  # keep this fraction of the best pairs
+    min_pairs: int = 40
+    normal_max_gap: float = 0.25  # a normal needs both scan neighbours this close (m)
+    max_step_change: float = 0.5  # refuse results further than this (m) from the odometry
+    max_turn_change: float = np.radians(15.0)
+
+
+def surface_normals(points: np.ndarray, max_gap: float) -> tuple[np.ndarray, np.ndarray]:
+    """Unit normals ``(n, 2)`` from each point's scan-order neighbours, and a mask of usable ones
+    (both neighbours within ``max_gap``)."""
+    n = len(points)
+    normals = np.zeros((n, 2))
+    ok = np.zeros(n, dtype=bool)
+    if n < 3:
+        return normals, ok
+    chord = points[2:] - points[:-2]
+    near = (np.hypot(*(points[2:] - points[1:-1]).T) < max_gap) & (
+        np.hypot(*(points[1:-1] - points[:-2]).T) < max_gap)
+    length = np.maximum(np.hypot(chord[:, 0], chord[:, 1]), 1e-12)
+    normals[1:-1, 0] = -chord[:, 1] / length
+    normals[1:-1, 1] = chord[:, 0] / length
+    ok[1:-1] = near
+    return normals, ok
+
+
+def _points(ranges, angles, valid, max_range):
+    keep = valid & (ranges < max_range)
+    r, a = ranges[keep], angles[keep]
+    return np.column_stack([r * np.cos(a), r * np.sin(a)])
+
+
+def match_increment(prev_scan, scan, guess, config: IcpConfig | None = None) -> tuple[np.ndarray, bool]:
+    """The sensor motion from ``prev_scan`` to ``scan`` (both in their sensor frames), refined from
+    ``guess``; returns ``(increment, converged)``."""
+    cfg = config or IcpConfig()
+    guess = np.asarray(guess, dtype=float)
+    ref = _points(prev_scan.ranges, prev_scan.angles, prev_scan.valid, cfg.max_range)
+    new = _points(scan.ranges, scan.angles, scan.valid, cfg.max_range)[::cfg.stride]
+    if len(ref) < cfg.min_pairs or len(new) < cfg.min_pairs:
+        return guess, False
+    normals, flat = surface_normals(ref, cfg.normal_max_gap)
+    ref, normals = ref[flat], normals[flat]
+    if len(ref) < cfg.min_pairs:
+        return guess, False
+    tree = cKDTree(ref)
+    pose = guess.copy()
+    for it in range(cfg.iterations):
+        gate = cfg.gate_start + (cfg.gate_end - cfg.gate_start) * it / max(cfg.iterations - 1, 1)
+        moved = transform_points(pose, new)
+        dist, nearest = tree.query(moved, distance_upper_bound=gate)
+        pair = dist < gate
+        if pair.sum() < cfg.min_pairs:
+            return guess, False
+        idx = np.flatnonzero(pair)
+        idx = idx[np.argsort(dist[idx])[:max(cfg.min_pairs, int(cfg.trim * len(idx)))]]
+        p, q, nrm = moved[idx], ref[nearest[idx]], normals[nearest[idx]]
+        # residual n·(p - q); d/d(tx, ty, dθ) about the current moved points
+        rel = p - pose[:2]
+        jac = np.column_stack([nrm[:, 0], nrm[:, 1], nrm[:, 0] * -rel[:, 1] + nrm[:, 1] * rel[:, 0]])
+        res = np.einsum("ij,ij->i", nrm, p - q)
+        step, *_ = np.linalg.lstsq(jac, -res, rcond=None)
+        # R(θ+δ)p = R(δ)R(θ)p: the same small rotation of rel, so the step adds component-wise
+        pose = np.array([pose[0] + step[0], pose[1] + step[1], float(wrap_angle(pose[2] + step[2]))])
+        if np.hypot(step[0], step[1]) < 1e-4 and abs(step[2]) < 1e-5:
+            break
+    if (np.hypot(*(pose[:2] - guess[:2])) > cfg.max_step_change
+            or abs(wrap_angle(pose[2] - guess[2])) > cfg.max_turn_change):
+        return guess, False
+    return pose, True
