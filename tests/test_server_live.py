@@ -196,7 +196,6 @@ def test_killed_worker_restarts_and_the_map_is_still_there(server):
 
 def test_switch_to_localization_on_a_saved_map_and_back(server):
     with server.client() as c:
-        assert c.put("/api/mode", json={"mode": "ekf"}).status_code == 409  # not in this build
         assert c.post("/api/maps", json={"name": "flat"}).status_code == 201
         assert c.put("/api/mode", json={"mode": "localization", "map": "nope"}).status_code == 404
         r = c.post("/api/maps/flat/load")
@@ -216,4 +215,14 @@ def test_switch_to_localization_on_a_saved_map_and_back(server):
         assert status["mode"] == "localization" and status["nav"]["state"] == "arrived", status["nav"]
         pose, true = status["pose"], status["true_pose"]
         assert math.hypot(pose["x"] - true[0], pose["y"] - true[1]) < 0.5, (pose, true)
+        r = c.put("/api/mode", json={"mode": "ekf"})
+        assert r.status_code == 200 and r.json()["mode"] == "ekf"
+        landmarks = []
+
+        async def watch(ws, message):
+            if message["type"] == "landmarks":
+                landmarks.append(message)
+
+        listen(server, 3.0, watch)
+        assert landmarks and len(landmarks[-1]["landmarks"]) == len(landmarks[-1]["covariances"])
         assert c.post("/api/mapping/start").json()["mode"] == "mapping"

@@ -18,21 +18,24 @@ STATE_FILE = "state.json"
 MAP_STEM = "map"
 
 
-def save_checkpoint(directory: Path, checkpoint: Checkpoint) -> None:
-    """Write map then state, each atomically (temp file + rename), so a crash leaves the old pair."""
+def save_checkpoint(directory: Path, checkpoint: Checkpoint, with_map: bool = True) -> None:
+    """Write map (unless ``with_map`` is false) then state, each atomically (temp file + rename)."""
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
-    if checkpoint.grid is not None and checkpoint.grid.data.size:
+    has_map = (directory / f"{MAP_STEM}.yaml").exists()
+    if with_map and checkpoint.grid is not None and checkpoint.grid.data.size:
         tmp = directory / "tmp"
         pgm, yml = save_map(checkpoint.grid, tmp / MAP_STEM)
         os.replace(pgm, directory / pgm.name)
         os.replace(yml, directory / yml.name)
+        has_map = True
     state = {
         "mode": checkpoint.mode,
         "pose": [float(v) for v in checkpoint.pose],
         "mapping": checkpoint.mapping,
         "map_name": checkpoint.map_name,
-        "has_map": checkpoint.grid is not None and bool(checkpoint.grid.data.size),
+        "has_map": has_map,
+        "ticks": None if checkpoint.ticks is None else [int(t) for t in checkpoint.ticks],
         "time": time.time(),
     }
     tmp_state = directory / (STATE_FILE + ".tmp")
@@ -46,8 +49,10 @@ def load_checkpoint(directory: Path) -> Checkpoint | None:
     try:
         state = json.loads((directory / STATE_FILE).read_text())
         grid = load_map(directory / f"{MAP_STEM}.yaml") if state.get("has_map") else None
+        ticks = state.get("ticks")
         return Checkpoint(state["mode"], np.array(state["pose"], float), grid,
-                          bool(state.get("mapping", True)), state.get("map_name"))
+                          bool(state.get("mapping", True)), state.get("map_name"),
+                          None if ticks is None else (int(ticks[0]), int(ticks[1])))
     except (OSError, ValueError, KeyError):
         return None
 

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from slam_core.ekf.ekf_slam import EkfConfig, EkfSlam
 from slam_core.estimator import Estimate
 from slam_core.localization.mcl import MclConfig, MonteCarloLocalizer
 from slam_core.occupancy_grid import OccupancyGrid
@@ -32,6 +33,7 @@ class Checkpoint:
     grid: OccupancyGrid | None = None
     mapping: bool = True
     map_name: str | None = None
+    ticks: tuple[int, int] | None = None  # the MCU's cumulative encoder counts at ``pose``
 
 
 class FrozenMap:
@@ -76,12 +78,20 @@ def make_estimator(mode: str, settings, checkpoint: Checkpoint | None):
             raise ModeUnavailable("localization needs a map: load a saved map or map first")
         config = MclConfig(min_particles=settings.mcl_min_particles, max_particles=settings.mcl_max_particles)
         return MonteCarloLocalizer(grid, config, rng=np.random.default_rng(settings.seed), initial_pose=pose)
-    raise ModeUnavailable(f"mode {mode!r} is not available yet in this build")
+    if mode == "ekf":
+        # Landmarks only: the map shown stays the last occupancy map; landmarks are streamed.
+        return EkfSlam(EkfConfig(), initial_pose=pose)
+    raise ModeUnavailable(f"unknown mode {mode!r}")
+
+
+def dead_reckons(estimator) -> bool:
+    """Whether ``estimate()`` already follows the odometry between filter updates."""
+    return isinstance(estimator, EkfSlam | FrozenMap)
 
 
 def available_modes() -> tuple[str, ...]:
     """Modes this build can run (the server refuses the others with a reason)."""
-    return ("mapping", "localization")
+    return ("mapping", "localization", "ekf")
 
 
 WARM_UP_BEAMS = 90

@@ -26,15 +26,18 @@ from app.grabbers.odometry_grabber import OdometryGrabber
 from app.grabbers.scan_grabber import ScanGrabber, load_sensor_source
 from app.grabbers.shared import Latest
 from app.worker.checkpoint import load_checkpoint, save_checkpoint, save_exit_map
-from app.worker.estimators import Checkpoint, ModeUnavailable, make_estimator, warm_up
+from app.worker.estimators import Checkpoint, ModeUnavailable, dead_reckons, make_estimator, warm_up
 from app.worker.shared_map import SharedMap, grid_cells
 from slam_core.estimator import Estimate
 from slam_core.geometry import compose, relative, transform_points
 from slam_core.io.ros_map import load_map
+from slam_core.sensors.wheel_odometry import ticks_to_increment, wrapped_delta
 
 log = logging.getLogger(__name__)
 
 WAIT_S = 0.05
+#: The pose (without the map) is checkpointed this often (s).
+POSE_SAVE_S = 0.2
 RATE_SMOOTHING = 0.2
 #: Keep this many poses of the trajectory drawn on the exit PNG.
 TRAJECTORY_KEEP = 20000
@@ -90,6 +93,8 @@ class Worker:
             self.estimator = make_estimator("mapping", s, checkpoint)
         self.anchor: tuple[np.ndarray, np.ndarray] | None = None
         self.updated_at: np.ndarray | None = None  # re-anchored odometry at the estimator's last update
+        self.ticks: tuple[int, int] | None = None  # encoder counts of the last step
+        self.resume_ticks = checkpoint.ticks if checkpoint else None  # counts at the checkpoint pose
         self.steps = 0
         self.rate_hz = 0.0
         self.last_step = None
@@ -121,9 +126,9 @@ class Worker:
         })
 
     # estimator management
-    def _checkpoint(self) -> Checkpoint:
-        return Checkpoint(self.mode, self.pose.copy(), self.estimator.occupancy_map(), self.mapping,
-                          self.map_name)
+    def _checkpoint(self, with_map: bool = True) -> Checkpoint:
+        grid = self.estimator.occupancy_map() if with_map else None
+        return Checkpoint(self.mode, self.pose.copy(), grid, self.mapping, self.map_name, self.ticks)
 
     def _rebuild(self, mode: str, grid=None, pose=None, mapping=None, map_name=None) -> None:
         """Swap the estimator, keeping the map frame continuous (odometry re-anchored)."""
@@ -179,7 +184,7 @@ class Worker:
         self.scan_grabber.start()
         self._event("started", restart=self.spec.restart, mode=self.mode)
         last_odo = last_scan = 0
-        next_map = next_checkpoint = time.monotonic()
+        next_map = next_checkpoint = next_pose_save = time.monotonic()
         try:
             while not self.stop.is_set():
                 self._drain_commands()
@@ -187,7 +192,7 @@ class Worker:
                 scan_seq, scan = self.scans.get()
                 if odo_seq > last_odo and scan_seq > last_scan:
                     last_odo, last_scan = odo_seq, scan_seq
-                    self._step(odo.pose, scan)
+                    self._step(odo, scan)
                 else:
                     # Wait for whichever is missing (never step on stale data).
                     missing = self.odometry if odo_seq <= last_odo else self.scans
@@ -198,18 +203,34 @@ class Worker:
                     next_map = now + 1.0 / s.map_hz
                 if now >= next_checkpoint:
                     save_checkpoint(s.checkpoint_dir, self._checkpoint())
-                    next_checkpoint = now + s.checkpoint_s
+                    next_checkpoint = next_pose_save = now + s.checkpoint_s
+                elif now >= next_pose_save and self.ticks is not None:
+                    save_checkpoint(s.checkpoint_dir, self._checkpoint(with_map=False), with_map=False)
+                    next_pose_save = now + POSE_SAVE_S
         finally:
             self._exit()
 
-    def _step(self, odometry: np.ndarray, scan) -> None:
+    def _step(self, reading, scan) -> None:
+        odometry = reading.pose
         if self.anchor is None:
-            self.anchor = (np.asarray(odometry, float).copy(), self.pose.copy())
+            start = self.pose.copy()
+            if self.resume_ticks is not None:
+                # Restarted: the robot moved on while no worker ran; the MCU's counters tell how far.
+                d_left = wrapped_delta(reading.ticks[0], self.resume_ticks[0])
+                d_right = wrapped_delta(reading.ticks[1], self.resume_ticks[1])
+                start = compose(start, ticks_to_increment(d_left, d_right, self.odometry_grabber.geometry))
+                self.resume_ticks = None
+                if d_left or d_right:
+                    self._rebuild(self.mode, pose=start)  # the estimator starts where the robot is
+            self.anchor = (np.asarray(odometry, float).copy(), start)
+        self.ticks = reading.ticks
         odo0, pose0 = self.anchor
         odometry = compose(pose0, relative(odo0, odometry))
         if self.estimator.step(odometry, scan) or self.updated_at is None:
             self.updated_at = odometry
-        estimate = self._dead_reckoned(self.estimator.estimate(), relative(self.updated_at, odometry))
+        estimate = self.estimator.estimate()
+        if not dead_reckons(self.estimator):
+            estimate = self._dead_reckoned(estimate, relative(self.updated_at, odometry))
         self.pose = np.asarray(estimate.pose, float)
         self.steps += 1
         now = time.monotonic()
