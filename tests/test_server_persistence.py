@@ -33,6 +33,9 @@ def test_places_maps_and_token_persist_and_shutdown_saves_the_map(tmp_path):
             assert meta["resolution"] == 0.05 and meta["image"] == "map.pgm"
         assert not (data / "maps" / "scratch.pgm").exists()
         assert (data / "maps" / "home 1.pgm").exists()
+        with server.client() as c:
+            assert c.post("/api/shutdown").json() == {"ok": True}  # the API's exit signal
+        server.proc.wait(30)
     finally:
         assert server.stop() in (0, -15), server.output  # uvicorn re-raises SIGTERM after a clean exit
     for suffix in (".pgm", ".yaml", ".png"):
