@@ -6,7 +6,9 @@ units, with ``|a - b|`` = 1 (orthogonal) or ``diagonal_step`` (``sqrt(2)``), and
 allowed only if both orthogonal cells it squeezes between are traversable.
 Because ``w >= 1`` the octile distance ``max(dx, dy) + (diagonal_step - 1) *
 min(dx, dy)`` is an admissible, consistent heuristic, so a cell's cost is final
-when it leaves the open list (closed set, lazy deletion in a binary heap).
+when it leaves the open list (a binary heap with lazy deletion, see ``_search``).
+With ``diagonal_step=1, corner_cutting=True`` the rules are pyastar2d's (the
+benchmark compares the two on those).
 
 Ties on ``f = g + h`` go to the cell nearer the goal: the heuristic is scaled
 by ``1 + TIE_BREAK``, which bounds the returned cost to within a relative
@@ -33,10 +35,18 @@ TIE_BREAK = 1e-9
 CANCEL_POLL = 1024
 #: Initial binary-heap capacity (it doubles when full).
 HEAP_CAPACITY = 1 << 14
+#: Entries of the bypass stack (successors expanded without touching the heap).
+BYPASS_CAPACITY = 1 << 12
 
 FOUND = 0
 UNREACHABLE = 1
 CANCELLED = 2
+HEAP_FULL = 3
+
+#: Open-list entries hold a cell as ``(y << XY_SHIFT) | x`` (exact in float64), not its index,
+#: so no division by the row length is needed when it is popped.
+XY_SHIFT = 24
+XY_MASK = (1 << XY_SHIFT) - 1
 
 _DX = np.array([1, -1, 0, 0, 1, 1, -1, -1], np.int64)
 _DY = np.array([0, 0, 1, -1, 1, -1, 1, -1], np.int64)
@@ -59,22 +69,32 @@ def _sift_up(heap, i):
 
 
 @njit(inline="always")
-def _sift_down(heap, size):
-    """Restore the heap after entry 0 was replaced (``size`` entries)."""
-    key = heap[0]
-    val = heap[1]
+def _pop_top(heap, size):
+    """Drop entry 0; ``size`` entries remain, the last of which sits at index ``size``.
+
+    Floyd's bottom-up deletion: the hole walks down to a leaf along the smaller
+    children (one comparison per level, no unpredictable branch), then the last
+    entry climbs back up.
+    """
+    key = heap[2 * size]
+    val = heap[2 * size + 1]
+    heap[2 * size] = np.inf  # sentinel: a missing right child never wins
     i = 0
     while True:
         c = 2 * i + 1
         if c >= size:
             break
-        if c + 1 < size and heap[2 * c + 2] < heap[2 * c]:
-            c += 1
-        if heap[2 * c] >= key:
-            break
+        c += heap[2 * c + 2] < heap[2 * c]  # branch-free choice of the smaller child
         heap[2 * i] = heap[2 * c]
         heap[2 * i + 1] = heap[2 * c + 1]
         i = c
+    while i > 0:
+        p = (i - 1) >> 1
+        if heap[2 * p] <= key:
+            break
+        heap[2 * i] = heap[2 * p]
+        heap[2 * i + 1] = heap[2 * p + 1]
+        i = p
     heap[2 * i] = key
     heap[2 * i + 1] = val
 
@@ -89,52 +109,60 @@ def _octile(x, y, gx, gy, diagonal_step):
 
 
 @njit
-def _astar_kernel(w, nxp, start, goal, diagonal_step, corner_cutting, cancel):
-    """A* over flat padded weights ``w`` (row length ``nxp``, ``inf`` border).
+def _search(w, nxp, goal, diagonal_step, corner_cutting, cancel, g, parent, heap, size, stack, top,
+            expansions):
+    """The A* loop over flat padded weights ``w`` (row length ``nxp``, ``inf`` border).
 
-    Returns ``(status, expansions, path, g)``: ``path`` the padded indices from
-    start to goal (empty unless found), ``g`` the cost of every settled cell.
+    Resumable: returns ``(status, size, top, expansions)`` with status
+    ``HEAP_FULL`` when ``heap`` must grow (growing inside this loop would make
+    numba reference-count the reassigned array on every iteration).
+
+    No closed set: an entry is stale when its key is no longer the cell's
+    current ``f`` (a cell's key is recomputed by the same expression, so the
+    live entry matches exactly). The heuristic is consistent, so an expanded
+    cell is not improved again (if the ``TIE_BREAK`` scaling ever allowed a
+    tiny improvement, the cell would simply be pushed and expanded again).
+
+    Bypass: a successor whose key is not above the key being expanded would be
+    the very next heap minimum (``f`` never decreases along a path), so it goes
+    on a small LIFO ``stack`` expanded before the heap is touched again. In
+    open space most moves toward the goal keep ``f`` constant, so most cells
+    skip the heap's ``O(log n)`` push and pop.
     """
-    n = w.shape[0]
-    g = np.full(n, np.inf)
-    parent = np.empty(n, np.int32)
-    closed = np.zeros(n, np.uint8)
-    # Keys and cells interleaved in one float64 array (cells < 2**53 are exact):
-    # one cache line per heap level instead of two.
-    heap = np.empty(2 * HEAP_CAPACITY, np.float64)
     gx = goal % nxp
     gy = goal // nxp
     h_scale = 1.0 + TIE_BREAK
     offs = _DX + _DY * nxp
-    g[start] = 0.0
-    parent[start] = start
-    heap[0] = 0.0
-    heap[1] = start
-    size = 1
-    expansions = 0
-    status = UNREACHABLE
-    while size > 0:
-        cur = np.int64(heap[1])
-        size -= 1
-        if size > 0:
-            heap[0] = heap[2 * size]
-            heap[1] = heap[2 * size + 1]
-            _sift_down(heap, size)
-        if closed[cur]:
+    capacity = heap.shape[0] // 2
+    stack_capacity = stack.shape[0] // 2
+    while size > 0 or top > 0:
+        if size + 8 > capacity:
+            return HEAP_FULL, size, top, expansions
+        if top > 0:
+            top -= 1
+            key = stack[2 * top]
+            code = np.int64(stack[2 * top + 1])
+        else:
+            key = heap[0]
+            code = np.int64(heap[1])
+            size -= 1
+            if size > 0:
+                _pop_top(heap, size)
+        cx = code & XY_MASK
+        cy = code >> XY_SHIFT
+        cur = cy * nxp + cx
+        gc = g[cur]
+        if key != gc + h_scale * _octile(cx, cy, gx, gy, diagonal_step):
             continue
-        closed[cur] = 1
         if cur == goal:
-            status = FOUND
-            break
+            return FOUND, size, top, expansions
         expansions += 1
         if (expansions & (CANCEL_POLL - 1)) == 0 and cancel[0] != 0:
-            status = CANCELLED
-            break
-        gc = g[cur]
+            return CANCELLED, size, top, expansions
         for k in range(8):
             nb = cur + offs[k]
             wn = w[nb]
-            if wn == np.inf or closed[nb]:
+            if wn == np.inf:
                 continue
             if k < 4:
                 ng = gc + wn
@@ -145,12 +173,50 @@ def _astar_kernel(w, nxp, start, goal, diagonal_step, corner_cutting, cancel):
             if ng < g[nb]:
                 g[nb] = ng
                 parent[nb] = cur
-                if 2 * size == heap.shape[0]:
-                    heap = np.concatenate((heap, np.empty_like(heap)))
-                heap[2 * size] = ng + h_scale * _octile(nb % nxp, nb // nxp, gx, gy, diagonal_step)
-                heap[2 * size + 1] = nb
-                _sift_up(heap, size)
-                size += 1
+                nx_ = cx + _DX[k]
+                ny_ = cy + _DY[k]
+                nkey = ng + h_scale * _octile(nx_, ny_, gx, gy, diagonal_step)
+                ncode = (ny_ << XY_SHIFT) | nx_
+                if nkey <= key and top < stack_capacity:
+                    stack[2 * top] = nkey
+                    stack[2 * top + 1] = ncode
+                    top += 1
+                else:
+                    heap[2 * size] = nkey
+                    heap[2 * size + 1] = ncode
+                    _sift_up(heap, size)
+                    size += 1
+    return UNREACHABLE, size, top, expansions
+
+
+@njit
+def _astar_kernel(w, nxp, start, goal, diagonal_step, corner_cutting, cancel):
+    """A* from padded index ``start`` to ``goal``.
+
+    Returns ``(status, expansions, path, g)``: ``path`` the padded indices from
+    start to goal (empty unless found), ``g`` the best known cost of every
+    reached cell (exact for every expanded cell).
+    """
+    n = w.shape[0]
+    g = np.full(n, np.inf)
+    parent = np.empty(n, np.int32)
+    # Keys and cells interleaved in one float64 array (cells < 2**53 are exact):
+    # one cache line per heap level instead of two.
+    heap = np.empty(2 * HEAP_CAPACITY, np.float64)
+    g[start] = 0.0
+    parent[start] = start
+    heap[0] = (1.0 + TIE_BREAK) * _octile(start % nxp, start // nxp, goal % nxp, goal // nxp, diagonal_step)
+    heap[1] = ((start // nxp) << XY_SHIFT) | (start % nxp)
+    size = 1
+    stack = np.empty(2 * BYPASS_CAPACITY, np.float64)
+    top = 0
+    expansions = 0
+    status = HEAP_FULL
+    while status == HEAP_FULL:
+        status, size, top, expansions = _search(w, nxp, goal, diagonal_step, corner_cutting, cancel, g,
+                                                parent, heap, size, stack, top, expansions)
+        if status == HEAP_FULL:
+            heap = np.concatenate((heap, np.empty_like(heap)))
     if status != FOUND:
         return status, expansions, np.empty(0, np.int64), g
     length = 1
@@ -209,6 +275,8 @@ def astar(costmap: Costmap, start, goal, *, diagonal_step: float = SQRT2, corner
             raise ValueError(f"{name} cell {tuple(int(v) for v in c)} is outside the {nx}x{ny} costmap")
     if diagonal_step < 1.0:
         raise ValueError(f"diagonal_step must be >= 1 (admissible heuristic), got {diagonal_step}")
+    if nx + 2 > XY_MASK:
+        raise ValueError(f"costmap is {nx} cells wide; at most {XY_MASK - 2} are supported")
     cancel = new_cancel_flag() if cancel is None else cancel
     if cancel.dtype != np.uint8 or cancel.shape != (1,):
         raise ValueError("cancel must be a one-element uint8 array (see new_cancel_flag)")

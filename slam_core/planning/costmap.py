@@ -71,12 +71,16 @@ class CostmapConfig:
 
 
 class Costmap:
-    """Cell weights ``weights[iy, ix]`` (>= 1, ``inf`` = impassable) in the grid's frame."""
+    """Cell weights ``weights[iy, ix]`` (>= 1, ``inf`` = impassable) in the grid's frame.
+
+    Weights are stored as ``float32`` (half the memory traffic of the search);
+    path costs are summed in ``float64``.
+    """
 
     def __init__(self, weights: np.ndarray, resolution: float, origin=(0.0, 0.0),
                  distance: np.ndarray | None = None, unknown: np.ndarray | None = None,
                  lethal: np.ndarray | None = None):
-        weights = np.asarray(weights, dtype=np.float64)
+        weights = np.asarray(weights, dtype=np.float32)
         if weights.ndim != 2:
             raise ValueError(f"weights must be 2-D, got shape {weights.shape}")
         if np.any(weights < 1.0) or np.any(np.isnan(weights)):

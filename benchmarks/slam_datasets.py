@@ -1,0 +1,76 @@
+"""Benchmark: ``homebot slam`` on the bundled intel and mit-csail logs.
+
+Prints, per log: wall time, real-time factor, peak RSS, numba compile time (cold
+cache and warm cache), filter updates, and the relation error (mean ± std).
+
+    python benchmarks/slam_datasets.py [--particles 30] [--logs intel mit-csail]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def homebot(*args: str, env=None) -> tuple[float, str]:
+    started = time.perf_counter()
+    out = subprocess.run([sys.executable, "-m", "app.cli", *args], cwd=ROOT, env=env, check=True,
+                         capture_output=True, text=True)
+    return time.perf_counter() - started, out.stdout
+
+
+def compile_times(workdir: Path) -> tuple[float, float]:
+    """Seconds for a 30-scan run with an empty numba cache, then with the cache it left."""
+    from slam_core.datasets import BUNDLED
+    from slam_core.io.carmen import open_log
+
+    tiny = workdir / "tiny.clf"
+    with open_log(BUNDLED["mit-csail"][0]) as src, open(tiny, "wb") as dst:
+        for n, line in enumerate(src):
+            dst.write(line)
+            if n > 40:
+                break
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(workdir / "numba-cache")}
+    cold, _ = homebot("slam", str(tiny), "--out", str(workdir / "tiny-cold"), env=env)
+    warm, _ = homebot("slam", str(tiny), "--out", str(workdir / "tiny-warm"), env=env)
+    return cold, warm
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--particles", type=int, default=30)
+    parser.add_argument("--logs", nargs="+", default=["intel", "mit-csail"])
+    args = parser.parse_args()
+    print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
+          f"python {platform.python_version()}")
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        cold, warm = compile_times(tmp)
+        print(f"start-up incl. numba compile, 40-line log: cold cache {cold:.1f} s, warm cache {warm:.1f} s")
+        print("| log | particles | wall s | real-time factor | peak RSS MB | updates | resamplings | "
+              "fallbacks | translational m | rotational deg |")
+        print("|---|---|---|---|---|---|---|---|---|---|")
+        for name in args.logs:
+            out = tmp / name
+            homebot("slam", name, "--out", str(out), "--particles", str(args.particles))
+            stats = json.loads((out / "stats.json").read_text())
+            _, text = homebot("eval", str(out / "trajectory.txt"), name, "--json")
+            err = json.loads(text)
+            print(f"| {name} | {args.particles} | {stats['wall_time_s']:.1f} | "
+                  f"{stats['real_time_factor']:.1f} | {stats['peak_rss_mb']:.0f} | {stats['updates']} | "
+                  f"{stats['resamplings']} | {stats['fallbacks']} | "
+                  f"{err['trans_mean_m']:.4f} ± {err['trans_std_m']:.4f} | "
+                  f"{err['rot_mean_deg']:.3f} ± {err['rot_std_deg']:.3f} |", flush=True)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,135 @@
+"""The particle filter SLAM end to end: synthetic ground truth, seeds, a slice of a real log."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from slam_core.evaluation import relation_error
+from slam_core.geometry import compose, relative, wrap_angle
+from slam_core.pipelines.log_slam import slam_from_log
+from slam_core.rbpf import RBPFConfig, RBPFSlam
+from slam_core.scan import Scan
+from tests.synthetic_room import room_scan
+
+
+def drive(n_steps: int, rng: np.random.Generator):
+    """True poses on a figure of eight in the room, and odometry that drifts from them."""
+    t = np.linspace(0, 2 * np.pi, n_steps)
+    x = 0.4 + 1.6 * np.sin(t)
+    y = 0.4 + 1.0 * np.sin(t) * np.cos(t)
+    th = np.unwrap(np.arctan2(np.gradient(y), np.gradient(x)))
+    truth = np.column_stack([x, y, wrap_angle(th)])
+    odom = [truth[0].copy()]
+    for a, b in zip(truth[:-1], truth[1:], strict=True):
+        step = relative(a, b)
+        step = step * np.array([1.04, 1.04, 1.06]) + rng.normal(0, [0.004, 0.004, 0.004])
+        odom.append(compose(odom[-1], step))
+    return truth, np.array(odom)
+
+
+def run_synthetic(seed: int, particles: int = 10, n_steps: int = 260):
+    rng = np.random.default_rng(100)
+    truth, odom = drive(n_steps, rng)
+    slam = RBPFSlam(RBPFConfig(particles=particles), seed=seed, initial_pose=truth[0])
+    updated = []
+    for pose, od in zip(truth, odom, strict=True):
+        if slam.step(od, room_scan(pose, 180, noise=0.01, rng=rng)):
+            updated.append(slam.estimate().pose)
+    updates, poses = slam.best_path()
+    return slam, truth, odom, poses
+
+
+def position_error(truth, estimate):
+    return np.hypot(*(truth[:, :2] - estimate[:, :2]).T)
+
+
+@pytest.fixture(scope="module")
+def synthetic_run():
+    return run_synthetic(seed=1)
+
+
+def test_filter_error_is_far_below_the_odometry_drift(synthetic_run):
+    slam, truth, odom, path = synthetic_run
+    update_scans = _update_scan_indices(slam, odom)
+    err = position_error(truth[update_scans], path)
+    odom_err = position_error(truth, odom)
+    assert odom_err.max() > 0.3  # the odometry really drifts
+    assert err.max() < 0.1 and err.mean() < 0.04
+    assert err.mean() < 0.2 * odom_err.mean()
+    heading_err = np.abs(wrap_angle(truth[update_scans, 2] - path[:, 2]))
+    assert np.degrees(heading_err.max()) < 2.0
+
+
+def _update_scan_indices(slam, odom):
+    """Which scans triggered the filter's updates (matched by their odometry pose)."""
+    upd = np.array(slam.update_odometry)
+    return np.array([int(np.argmin(np.abs(odom - u).sum(axis=1))) for u in upd])
+
+
+def test_same_seed_same_result_and_another_seed_differs(synthetic_run):
+    slam, _, _, path = synthetic_run
+    again = run_synthetic(seed=1)[3]
+    np.testing.assert_array_equal(path, again)
+    other = run_synthetic(seed=2)[3]
+    assert not np.array_equal(path, other)
+
+
+def test_published_estimate_is_the_weighted_circular_mean():
+    slam = RBPFSlam(RBPFConfig(particles=4), seed=0, initial_pose=(0.0, 0.0, np.pi - 0.01))
+    slam.poses = np.array([[0, 0, np.pi - 0.05], [1, 0, -np.pi + 0.05], [0, 1, np.pi], [1, 1, np.pi]])
+    slam.log_weights = np.log([0.1, 0.1, 0.4, 0.4])
+    est = slam.estimate()
+    assert abs(wrap_angle(est.pose[2] - np.pi)) < 0.01  # not near 0, the naive mean
+    np.testing.assert_allclose(est.pose[:2], [0.5, 0.8])
+    np.testing.assert_allclose(est.weights.sum(), 1.0)
+
+
+def test_falls_back_to_the_motion_model_when_nothing_matches():
+    slam = RBPFSlam(RBPFConfig(particles=5), seed=0)
+    blind = Scan(np.linspace(-1, 1, 30), np.full(30, 80.0), 0.1, 80.0)  # no echo at all
+    slam.step(np.zeros(3), room_scan(np.zeros(3)))
+    assert slam.step(np.array([0.5, 0.0, 0.0]), blind)
+    assert slam.stats.fallbacks == 5 and slam.stats.matched == 0
+    assert len(np.unique(slam.poses[:, 0])) == 5  # drawn from the motion model: spread out
+
+
+def test_no_update_before_the_robot_has_moved():
+    config = RBPFConfig(particles=3, linear_update=0.5, angular_update=0.3)
+    slam = RBPFSlam(config, seed=0)
+    assert slam.step(np.zeros(3), room_scan(np.zeros(3)))
+    assert not slam.step(np.array([0.3, 0.0, 0.2]), room_scan(np.zeros(3)))
+    assert slam.step(np.array([0.3, 0.0, 0.31]), room_scan(np.zeros(3)))
+    assert slam.stats.updates == 2 and slam.stats.scans == 3
+
+
+def test_slice_of_the_mit_csail_log_stays_accurate(tmp_path):
+    """Regression: the first 400 scans of mit-csail (bound stated in the assertion)."""
+    from slam_core.datasets import BUNDLED
+    from slam_core.evaluation import load_relations
+    from slam_core.io.carmen import open_log
+
+    log, relations = BUNDLED["mit-csail"]
+    sliced = tmp_path / "mit-slice.clf"
+    with open_log(log) as src, open(sliced, "wb") as dst:
+        lasers = 0
+        for line in src:
+            dst.write(line)
+            lasers += line.startswith(b"FLASER")
+            if lasers == 400:
+                break
+    run = slam_from_log(sliced, RBPFConfig(), seed=0)
+    traj = run.trajectory
+    assert len(traj.stamps) == 400
+    rel = load_relations(relations)
+    times = traj.times
+    rel = rel[(rel[:, 0] <= times.max()) & (rel[:, 1] <= times.max())]
+    err = relation_error(times, traj.poses, rel)
+    assert err.count > 150 and err.unmatched == 0
+    assert err.trans.mean() < 0.05, err.report()
+    assert err.rot.mean() < 1.0, err.report()
+
+
+def test_config_round_trips_through_a_dict():
+    config = dataclasses.replace(RBPFConfig(), particles=7)
+    assert RBPFConfig.from_dict(config.to_dict()) == config
