@@ -1,14 +1,12 @@
-"""A tiny analytic world for the EKF tests: a square room with round posts, ray-cast exactly.
+"""A tiny analytic world for the EKF unit tests: a square room with round posts, ray-cast exactly.
 
-Independent of the EKF code: beams are intersected with circles and walls in closed form.
+Independent of the EKF and simulator code: beams meet circles and walls in closed form.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from slam_core.geometry import compose, relative
-from slam_core.motion_model import OdometryMotionModel
 from slam_core.scan import Scan
 
 ROOM = 10.0  # the room spans [-ROOM, ROOM]^2
@@ -25,9 +23,9 @@ def posts(rng: np.random.Generator, n: int = 30, min_gap: float = 1.5) -> np.nda
     return np.array(out)
 
 
-def cast(pose, centres, n_beams=360, fov=2 * np.pi, sigma=0.0, rng=None) -> Scan:
+def cast(pose, centres, n_beams=720, sigma=0.0, rng=None, radius=POST_RADIUS) -> Scan:
     """Exact ranges from ``pose`` to the room walls and posts (+ optional Gaussian noise)."""
-    angles = -fov / 2 + fov * np.arange(n_beams) / n_beams
+    angles = -np.pi + 2 * np.pi * np.arange(n_beams) / n_beams
     a = pose[2] + angles
     d = np.column_stack([np.cos(a), np.sin(a)])
     o = np.asarray(pose[:2], float)
@@ -38,7 +36,7 @@ def cast(pose, centres, n_beams=360, fov=2 * np.pi, sigma=0.0, rng=None) -> Scan
     for c in centres:
         oc = o - c
         b = d @ oc
-        disc = b * b - (oc @ oc - POST_RADIUS ** 2)
+        disc = b * b - (oc @ oc - radius ** 2)
         t = -b - np.sqrt(np.maximum(disc, 0.0))
         hit = (disc >= 0) & (t > 0)
         ranges = np.where(hit, np.minimum(ranges, t), ranges)
@@ -46,20 +44,3 @@ def cast(pose, centres, n_beams=360, fov=2 * np.pi, sigma=0.0, rng=None) -> Scan
         ranges = ranges + sigma * rng.standard_normal(n_beams)
     ranges = np.where(ranges >= RANGE_MAX, np.inf, ranges)
     return Scan(angles, ranges, 0.05, RANGE_MAX)
-
-
-def loop_poses(n: int = 400, radius: float = 6.0, laps: float = 1.0) -> np.ndarray:
-    """True poses on a circle, driven counter-clockwise."""
-    t = np.linspace(0.0, 2 * np.pi * laps, n)
-    return np.column_stack([radius * np.cos(t), radius * np.sin(t), t + np.pi / 2])
-
-
-def noisy_odometry(truth: np.ndarray, model: OdometryMotionModel, rng) -> np.ndarray:
-    """Odometry poses whose increments are the true ones corrupted by the motion model's noise."""
-    odom = [truth[0].copy()]
-    for a, b in zip(truth[:-1], truth[1:], strict=True):
-        # sample the TRUE successor given odometry a->b applied to the odometry frame:
-        # equivalently perturb the true increment once and chain it onto the odometry
-        moved = model.sample(np.zeros((1, 3)), np.zeros(3), relative(a, b), rng)[0]
-        odom.append(compose(odom[-1], moved))
-    return np.array(odom)

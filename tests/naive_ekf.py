@@ -39,3 +39,27 @@ def dense_add(mean, cov, z, r):
     big[:n, :n] = cov
     big[n:, n:] = r
     return np.concatenate([mean, lm]), j @ big @ j.T
+
+
+def naive_clusters(scan, lam, sigma):
+    """Borges & Aldon breakpoints, the obvious way: list of index arrays."""
+    runs, current = [], []
+    for i in range(len(scan.ranges)):
+        if not scan.valid[i]:
+            if current:
+                runs.append(np.array(current))
+            current = []
+            continue
+        if current:
+            j = current[-1]
+            pi = scan.ranges[i] * np.array([np.cos(scan.angles[i]), np.sin(scan.angles[i])])
+            pj = scan.ranges[j] * np.array([np.cos(scan.angles[j]), np.sin(scan.angles[j])])
+            dphi = abs(scan.angles[i] - scan.angles[j])
+            limit = scan.ranges[j] * np.sin(dphi) / max(np.sin(lam - dphi), 1e-3 * np.sin(lam))
+            if np.linalg.norm(pi - pj) > limit + 3 * sigma:
+                runs.append(np.array(current))
+                current = []
+        current.append(i)
+    if current:
+        runs.append(np.array(current))
+    return runs

@@ -6,7 +6,15 @@ import numpy as np
 import pytest
 
 from slam_core.datasets import resolve_log
-from slam_core.ekf.landmarks import CORNER, SPIKE, ExtractorConfig, extract, split_segments
+from slam_core.ekf.landmarks import (
+    CORNER,
+    SPIKE,
+    ExtractorConfig,
+    clusters,
+    extract,
+    fit_line,
+    split_segments,
+)
 from slam_core.geometry import relative, transform_points
 from slam_core.io.carmen import laser_records
 from slam_core.scan import Scan
@@ -105,3 +113,23 @@ def test_real_scans_yield_features_and_corners_repeat_from_scan_to_scan(mit_reco
     assert np.mean(counts) >= 1.0
     assert total >= 100
     assert repeated / total > 0.5
+
+
+def test_compiled_clusters_match_the_naive_reference(mit_records):
+    from naive_ekf import naive_clusters
+
+    config = ExtractorConfig()
+    for rec in mit_records[::40]:
+        fast = clusters(rec.scan, config)
+        slow = naive_clusters(rec.scan, config.breakpoint_lambda, config.range_sigma)
+        assert len(fast) == len(slow)
+        for a, b in zip(fast, slow, strict=True):
+            np.testing.assert_array_equal(a, b)
+
+
+def test_fit_line_direction_matches_the_principal_eigenvector():
+    rng = np.random.default_rng(3)
+    pts = rng.normal(size=(50, 2)) * [2.0, 0.1] @ np.array([[0.6, 0.8], [-0.8, 0.6]])
+    _, d = fit_line(pts)
+    _, vecs = np.linalg.eigh(np.cov(pts.T))
+    assert abs(abs(d @ vecs[:, 1]) - 1.0) < 1e-9

@@ -4,7 +4,12 @@ import numpy as np
 import pytest
 from naive_ekf import dense_add, dense_update
 
-from slam_core.ekf.association import CHI2_2_99, associate, mahalanobis_table, predicted_innovation_covariances
+from slam_core.ekf.association import (
+    CHI2_2_99,
+    associate,
+    mahalanobis_table,
+    predicted_innovation_covariances,
+)
 from slam_core.ekf.models import motion_jacobians, observe
 from slam_core.ekf.state import EkfState
 
@@ -72,7 +77,7 @@ def test_innovation_covariance_table_matches_per_landmark_formula():
         nu, s = state.innovation(j, z_pred[j], r)
         np.testing.assert_allclose(nu, 0.0, atol=1e-12)
         np.testing.assert_allclose(s_pred[j] + r, s, atol=1e-12)
-    z_obs = z_pred[:2] + [[0.05, 0.01], [-0.02, 0.0]]
+    z_obs = z_pred[:2] + np.array([[0.05, 0.01], [-0.02, 0.0]])
     d2 = mahalanobis_table(z_obs, np.repeat(r[None], 2, axis=0), z_pred, s_pred)
     for i in range(2):
         for j in range(state.n_landmarks):

@@ -176,6 +176,11 @@ class EkfSlam:
         self._tentatives(z, r, kinds, directions, assoc.new)
         self.updates += 1
 
+    def _add(self, z, r, kind, direction) -> None:
+        self.state.add_landmark(z, r)
+        self.landmark_kinds = np.append(self.landmark_kinds, kind)
+        self.landmark_directions = np.append(self.landmark_directions, direction)
+
     def _tentatives(self, z, r, kinds, directions, new) -> None:
         """Count unmatched observations in the tentative list; promote the consistent ones."""
         cfg = self.config
@@ -195,12 +200,13 @@ class EkfSlam:
                     self._seen[k] = self.updates
                     self._tentative[k] += (p - self._tentative[k]) / self._hits[k]
                     if self._hits[k] >= cfg.confirm_hits:
-                        self.state.add_landmark(z[i], r[i])
-                        self.landmark_kinds = np.append(self.landmark_kinds, kinds[i])
-                        self.landmark_directions = np.append(self.landmark_directions, directions[i])
+                        self._add(z[i], r[i], kinds[i], directions[i])
                         promoted[k] = True
                     continue
-            fresh.append(i)
+            if cfg.confirm_hits <= 1:
+                self._add(z[i], r[i], kinds[i], directions[i])
+            else:
+                fresh.append(i)
         keep = ~promoted & (self.updates - self._seen < cfg.tentative_max_age)
         fresh = np.array(fresh, dtype=int)
         self._tentative = np.vstack([self._tentative[keep], self.last_features[fresh].reshape(-1, 2)])

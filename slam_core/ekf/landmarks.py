@@ -14,10 +14,12 @@
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 
 import numpy as np
 
+from slam_core.jit import njit
 from slam_core.scan import Scan
 
 SPIKE = 0
@@ -59,32 +61,38 @@ class Features:
         return len(self.points)
 
 
+@njit
+def _cluster_labels(ranges, angles, valid, sin_lambda_rad, lambda_rad, three_sigma, labels):
+    label = -1
+    last = -1
+    for i in range(ranges.shape[0]):
+        if not valid[i]:
+            labels[i] = -1
+            last = -1
+            continue
+        if last < 0:
+            label += 1
+        else:
+            dphi = abs(angles[i] - angles[last])
+            limit = ranges[last] * np.sin(dphi) / max(np.sin(lambda_rad - dphi), 1e-3 * sin_lambda_rad)
+            dx = ranges[i] * np.cos(angles[i]) - ranges[last] * np.cos(angles[last])
+            dy = ranges[i] * np.sin(angles[i]) - ranges[last] * np.sin(angles[last])
+            if np.sqrt(dx * dx + dy * dy) > limit + three_sigma:
+                label += 1
+        labels[i] = label
+        last = i
+
+
 def clusters(scan: Scan, config: ExtractorConfig) -> list[np.ndarray]:
     """Beam indices of runs of contiguous valid points (adaptive breakpoints)."""
-    valid = scan.valid
-    r, a = scan.ranges, scan.angles
-    rv = np.where(valid, r, 0.0)
-    x, y = rv * np.cos(a), rv * np.sin(a)
-    runs: list[np.ndarray] = []
-    current: list[int] = []
-    sin_l = np.sin(config.breakpoint_lambda)
-    for i in range(len(r)):
-        if not valid[i]:
-            if current:
-                runs.append(np.array(current))
-            current = []
-            continue
-        if current:
-            j = current[-1]
-            dphi = abs(a[i] - a[j])
-            limit = r[j] * np.sin(dphi) / max(np.sin(config.breakpoint_lambda - dphi), 1e-3 * sin_l)
-            if np.hypot(x[i] - x[j], y[i] - y[j]) > limit + 3.0 * config.range_sigma:
-                runs.append(np.array(current))
-                current = []
-        current.append(i)
-    if current:
-        runs.append(np.array(current))
-    return runs
+    labels = np.empty(len(scan), dtype=np.int64)
+    lam = float(config.breakpoint_lambda)
+    _cluster_labels(scan.ranges, scan.angles, scan.valid, np.sin(lam), lam, 3.0 * config.range_sigma, labels)
+    idx = np.flatnonzero(labels >= 0)
+    if len(idx) == 0:
+        return []
+    cuts = np.flatnonzero(np.diff(labels[idx]) != 0) + 1
+    return np.split(idx, cuts)
 
 
 def spikes(scan: Scan, runs: list[np.ndarray], config: ExtractorConfig) -> np.ndarray:
@@ -145,8 +153,10 @@ def split_segments(points: np.ndarray, threshold: float) -> list[tuple[int, int]
 def fit_line(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Total least squares line: ``(centroid, unit direction)``."""
     c = points.mean(axis=0)
-    _, vecs = np.linalg.eigh(np.cov((points - c).T))
-    return c, vecs[:, 1]
+    d = points - c
+    sxx, syy, sxy = d[:, 0] @ d[:, 0], d[:, 1] @ d[:, 1], d[:, 0] @ d[:, 1]
+    angle = 0.5 * np.arctan2(2.0 * sxy, sxx - syy)  # principal axis of the scatter
+    return c, np.array([np.cos(angle), np.sin(angle)])
 
 
 def corners(scan: Scan, runs: list[np.ndarray], config: ExtractorConfig) -> tuple[np.ndarray, np.ndarray]:
@@ -160,7 +170,7 @@ def corners(scan: Scan, runs: list[np.ndarray], config: ExtractorConfig) -> tupl
         pts = np.column_stack([r[run] * np.cos(a[run]), r[run] * np.sin(a[run])])
         segs = [(a0, b0) for a0, b0 in split_segments(pts, config.split_threshold)
                 if _long_enough(pts[a0:b0 + 1], config)]
-        for (a0, b0), (a1, b1) in zip(segs, segs[1:], strict=False):
+        for (a0, b0), (a1, b1) in itertools.pairwise(segs):
             if a1 - b0 > config.corner_max_skip:
                 continue
             first, second = pts[a0:b0 + 1], pts[a1:b1 + 1]

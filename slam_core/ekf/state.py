@@ -91,7 +91,7 @@ class EkfState:
         return nu, h @ self.cov[np.ix_(cols, cols)] @ h.T + r
 
     def update(self, indices, z, r) -> None:
-        """One joint EKF update with observations ``z (m, 2)`` of landmarks ``indices`` (noise ``r (m, 2, 2)``)."""
+        """One joint EKF update: observations ``z (m, 2)`` of landmarks ``indices``, noise ``r (m, 2, 2)``."""
         indices = np.asarray(indices, dtype=int)
         m = len(indices)
         if m == 0:

@@ -1,0 +1,86 @@
+"""The EKF cycle on an analytic room: tentative list against clutter, ICP, estimator contract."""
+
+import numpy as np
+import pytest
+from ekf_world import POST_RADIUS, cast, posts
+
+from slam_core.ekf.ekf_slam import EkfConfig, EkfSlam
+from slam_core.ekf.landmarks import SPIKE, ExtractorConfig
+from slam_core.ekf.scan_odometry import match_increment
+from slam_core.geometry import compose, relative
+from slam_core.scan import Scan
+
+EXTRACTOR = ExtractorConfig(spike_min_beams=1, spike_radius=POST_RADIUS)
+
+
+def test_icp_recovers_the_true_increment_from_a_wrong_guess():
+    rng = np.random.default_rng(0)
+    centres = posts(rng)
+    a, b = np.array([1.0, 2.0, 0.3]), np.array([1.2, 2.1, 0.35])
+    sa, sb = cast(a, centres, sigma=0.01, rng=rng), cast(b, centres, sigma=0.01, rng=rng)
+    true = relative(a, b)
+    for error in ([0.1, -0.05, 0.04], [0.0, 0.0, -0.08]):
+        inc, ok = match_increment(sa, sb, true + np.array(error))
+        assert ok
+        assert np.hypot(*(inc[:2] - true[:2])) < 0.01 and abs(inc[2] - true[2]) < 0.005
+
+
+def test_icp_reports_failure_on_an_empty_scan():
+    empty = Scan(np.linspace(-1, 1, 50), np.full(50, np.inf), 0.1, 10.0)
+    guess = np.array([0.1, 0.0, 0.0])
+    inc, ok = match_increment(empty, empty, guess)
+    assert not ok and np.array_equal(inc, guess)
+
+
+def drive(ekf, centres, clutter_rng=None, steps=60):
+    """Drive straight along x through the room; optionally one random clutter post per scan."""
+    rng = np.random.default_rng(5)
+    for k in range(steps):
+        pose = np.array([-4.0 + 0.1 * k, 0.0, 0.0])
+        extra = centres
+        if clutter_rng is not None:
+            extra = np.vstack([centres, clutter_rng.uniform(-8, 8, (1, 2))])
+        ekf.step(pose, cast(pose, extra, sigma=0.005, rng=rng))
+    return ekf
+
+
+def test_clutter_seen_once_never_becomes_a_landmark():
+    centres = np.array([[0.0, 3.0], [2.0, -3.0], [-3.0, 4.0]])
+    clean = drive(EkfSlam(EkfConfig(extractor=EXTRACTOR), (-4.0, 0.0, 0.0)), centres)
+    noisy = drive(EkfSlam(EkfConfig(extractor=EXTRACTOR), (-4.0, 0.0, 0.0)), centres,
+                  clutter_rng=np.random.default_rng(9))
+    for ekf in (clean, noisy):
+        spikes = ekf.state.landmarks[ekf.landmark_kinds == SPIKE]
+        assert len(spikes) == len(centres)
+        d = np.hypot(spikes[:, None, 0] - centres[None, :, 0], spikes[:, None, 1] - centres[None, :, 1])
+        assert d.min(axis=0).max() < 0.05
+    # without the tentative list every clutter post would have become a landmark at once
+    eager = drive(EkfSlam(EkfConfig(extractor=EXTRACTOR, confirm_hits=1), (-4.0, 0.0, 0.0)), centres,
+                  clutter_rng=np.random.default_rng(9))
+    assert np.sum(eager.landmark_kinds == SPIKE) > len(centres) + 10
+
+
+def test_estimate_and_innovations_follow_the_estimator_contract():
+    centres = np.array([[0.0, 3.0], [2.0, -3.0], [-3.0, 4.0]])
+    ekf = drive(EkfSlam(EkfConfig(extractor=EXTRACTOR), (-4.0, 0.0, 0.0)), centres, steps=30)
+    est = ekf.estimate()
+    k = ekf.state.n_landmarks
+    assert est.pose.shape == (3,) and est.covariance.shape == (3, 3)
+    assert est.landmarks.shape == (k, 2) and est.landmark_covariances.shape == (k, 2, 2)
+    assert ekf.occupancy_map() is None
+    inn = ekf.last_innovations
+    assert len(inn.landmarks) > 0
+    assert inn.innovations.shape == (len(inn.landmarks), 2)
+    assert np.all(np.linalg.eigvalsh(inn.covariances) > 0)
+    # a small move is not an update: the pose follows the odometry, the filter waits
+    before = ekf.updates
+    odom = np.array([-4.0 + 0.1 * 29 + 0.01, 0.0, 0.0])
+    assert not ekf.step(odom, cast(odom, centres))
+    assert ekf.updates == before
+    np.testing.assert_allclose(ekf.pose, compose(ekf.state.pose, [0.01, 0.0, 0.0]), atol=1e-9)
+
+
+def test_bad_odometry_is_rejected():
+    ekf = EkfSlam()
+    with pytest.raises(ValueError, match="odometry"):
+        ekf.step([0.0, np.inf, 0.0], cast(np.zeros(3), []))
