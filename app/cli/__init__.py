@@ -7,7 +7,7 @@ import importlib
 import sys
 
 #: Subcommand modules under ``app.cli``; each defines ``register(subparsers)``.
-COMMANDS = ("map", "slam", "eval", "link", "sim", "ekf")
+COMMANDS = ("map", "slam", "eval", "sim", "link", "localize", "ekf", "serve")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -1,0 +1,25 @@
+"""Adapters from the navigator to the planner (``slam_core.planning``) and the path follower."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from app.core.config import Settings
+from slam_core.control.pure_pursuit import PurePursuit, PursuitConfig
+from slam_core.occupancy_grid import OccupancyGrid
+from slam_core.planning import planner
+from slam_core.planning.costmap import build_costmap
+from slam_core.planning.errors import PlanningError
+
+__all__ = ["PlanningError", "follower_for", "plan_path"]
+
+
+def plan_path(grid: OccupancyGrid, pose: np.ndarray, goal) -> np.ndarray:
+    """Waypoints ``(n, 2)`` from the pose to the goal; raises ``PlanningError`` with a ``reason``."""
+    path = planner.plan_path(build_costmap(grid), np.asarray(pose, float)[:2], np.asarray(goal, float))
+    return np.asarray(path.waypoints, float)
+
+
+def follower_for(waypoints: np.ndarray, settings: Settings) -> PurePursuit:
+    """The simulator branch's pure-pursuit controller, within the server's speed limits."""
+    return PurePursuit(waypoints, PursuitConfig(v_max=settings.max_speed, w_max=settings.max_turn_rate))

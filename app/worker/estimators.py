@@ -1,0 +1,112 @@
+"""The one place estimators are built: ``make_estimator(mode, settings, checkpoint)``.
+
+Every estimator follows :class:`slam_core.estimator.Estimator`. The worker feeds them
+odometry re-anchored so that the first reading after a (re)start equals the
+checkpoint pose; the map frame is therefore continuous across worker restarts.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from slam_core.ekf.ekf_slam import EkfConfig, EkfSlam
+from slam_core.estimator import Estimate
+from slam_core.localization.mcl import MclConfig, MonteCarloLocalizer
+from slam_core.occupancy_grid import OccupancyGrid
+from slam_core.rbpf.config import RBPFConfig
+from slam_core.rbpf.filter import RBPFSlam
+from slam_core.scan import Scan
+
+
+class ModeUnavailable(RuntimeError):
+    """The estimator for that mode cannot be built (missing map, not installed)."""
+
+
+@dataclass
+class Checkpoint:
+    """What a restarted worker resumes from: the last map, pose and mode."""
+
+    mode: str
+    pose: np.ndarray
+    grid: OccupancyGrid | None = None
+    mapping: bool = True
+    map_name: str | None = None
+    ticks: tuple[int, int] | None = None  # the MCU's cumulative encoder counts at ``pose``
+
+
+class FrozenMap:
+    """Mapping stopped: the map stays as it is and the pose follows the (re-anchored) odometry."""
+
+    def __init__(self, grid: OccupancyGrid | None, pose: np.ndarray):
+        self.grid = grid
+        self.pose = np.asarray(pose, float)
+
+    def step(self, odometry: np.ndarray, scan: Scan) -> bool:
+        self.pose = np.asarray(odometry, float)
+        return True
+
+    def estimate(self) -> Estimate:
+        return Estimate(pose=self.pose.copy(), localized=False)
+
+    def occupancy_map(self) -> OccupancyGrid | None:
+        return self.grid
+
+
+def _rbpf(settings, pose: np.ndarray, grid: OccupancyGrid | None) -> RBPFSlam:
+    """The RBPF SLAM, resumed on the checkpoint's map when there is one."""
+    config = RBPFConfig(particles=settings.particles, resolution=settings.resolution,
+                        linear_update=settings.rbpf_linear_update,
+                        angular_update=settings.rbpf_angular_update)
+    slam = RBPFSlam(config, seed=settings.seed, initial_pose=pose)
+    if grid is not None and grid.data.size and abs(grid.resolution - settings.resolution) < 1e-12:
+        slam.maps.seed_from_grid(grid)
+    return slam
+
+
+def make_estimator(mode: str, settings, checkpoint: Checkpoint | None):
+    """The estimator for ``mode``, resuming from ``checkpoint`` (map and pose) when given."""
+    grid = checkpoint.grid if checkpoint is not None else None
+    pose = checkpoint.pose if checkpoint is not None else np.zeros(3)
+    if checkpoint is not None and not checkpoint.mapping:
+        return FrozenMap(grid, pose)
+    if mode == "mapping":
+        return _rbpf(settings, pose, grid)
+    if mode == "localization":
+        if grid is None or not grid.data.size:
+            raise ModeUnavailable("localization needs a map: load a saved map or map first")
+        config = MclConfig(min_particles=settings.mcl_min_particles, max_particles=settings.mcl_max_particles)
+        return MonteCarloLocalizer(grid, config, rng=np.random.default_rng(settings.seed), initial_pose=pose)
+    if mode == "ekf":
+        # Landmarks only: the map shown stays the last occupancy map; landmarks are streamed.
+        return EkfSlam(EkfConfig(), initial_pose=pose)
+    raise ModeUnavailable(f"unknown mode {mode!r}")
+
+
+def dead_reckons(estimator) -> bool:
+    """Whether ``estimate()`` already follows the odometry between filter updates."""
+    return isinstance(estimator, EkfSlam | FrozenMap)
+
+
+def available_modes() -> tuple[str, ...]:
+    """Modes this build can run (the server refuses the others with a reason)."""
+    return ("mapping", "localization", "ekf")
+
+
+WARM_UP_BEAMS = 90
+
+
+def warm_up(settings) -> None:
+    """Compile (or load from numba's cache) the mapping kernels before the first real step.
+
+    A first update compiled lazily would stall the live loop for a long time on a
+    fresh install; a two-particle filter on a synthetic round room does it up front.
+    """
+    config = RBPFConfig(particles=2, resolution=settings.resolution, linear_update=0.01, angular_update=0.01)
+    slam = RBPFSlam(config, seed=0)
+    angles = np.linspace(-np.pi, np.pi, WARM_UP_BEAMS, endpoint=False)
+    scan = Scan(angles, np.full(WARM_UP_BEAMS, 2.0), 0.1, 8.0)
+    slam.step(np.zeros(3), scan)
+    slam.step(np.array([0.05, 0.0, 0.02]), scan)
+    slam.occupancy_map()
