@@ -1,6 +1,7 @@
 """The particle filter SLAM end to end: synthetic ground truth, seeds, a slice of a real log."""
 
 import dataclasses
+import itertools
 
 import numpy as np
 import pytest
@@ -21,7 +22,7 @@ def drive(n_steps: int, rng: np.random.Generator):
     th = np.unwrap(np.arctan2(np.gradient(y), np.gradient(x)))
     truth = np.column_stack([x, y, wrap_angle(th)])
     odom = [truth[0].copy()]
-    for a, b in zip(truth[:-1], truth[1:], strict=True):
+    for a, b in itertools.pairwise(truth):
         step = relative(a, b)
         step = step * np.array([1.04, 1.04, 1.06]) + rng.normal(0, [0.004, 0.004, 0.004])
         odom.append(compose(odom[-1], step))
@@ -36,7 +37,7 @@ def run_synthetic(seed: int, particles: int = 10, n_steps: int = 260):
     for pose, od in zip(truth, odom, strict=True):
         if slam.step(od, room_scan(pose, 180, noise=0.01, rng=rng)):
             updated.append(slam.estimate().pose)
-    updates, poses = slam.best_path()
+    _updates, poses = slam.best_path()
     return slam, truth, odom, poses
 
 
@@ -68,7 +69,7 @@ def _update_scan_indices(slam, odom):
 
 
 def test_same_seed_same_result_and_another_seed_differs(synthetic_run):
-    slam, _, _, path = synthetic_run
+    _slam, _, _, path = synthetic_run
     again = run_synthetic(seed=1)[3]
     np.testing.assert_array_equal(path, again)
     other = run_synthetic(seed=2)[3]
