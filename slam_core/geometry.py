@@ -14,7 +14,9 @@ from slam_core.jit import njit
 
 def wrap_angle(theta):
     """Wrap angles to the half-open interval ``[-pi, pi)``."""
-    return (np.asarray(theta, dtype=float) + np.pi) % (2.0 * np.pi) - np.pi
+    w = (np.asarray(theta, dtype=float) + np.pi) % (2.0 * np.pi) - np.pi
+    # Just below -pi the remainder rounds up to 2 pi and would give +pi.
+    return np.where(w >= np.pi, w - 2.0 * np.pi, w)[()]
 
 
 def compose(a, b):
@@ -70,7 +72,8 @@ def mean_pose(poses, weights=None):
 @njit
 def wrap_scalar(theta):
     """Compiled ``wrap_angle`` for one float."""
-    return (theta + np.pi) % (2.0 * np.pi) - np.pi
+    w = (theta + np.pi) % (2.0 * np.pi) - np.pi
+    return w - 2.0 * np.pi if w >= np.pi else w
 
 
 @njit

@@ -119,6 +119,8 @@ class OccupancyGrid:
     def integrate(self, scan: Scan, pose) -> None:
         """Update the grid with one scan taken from sensor pose ``pose`` (x, y, theta)."""
         pose = np.asarray(pose, dtype=np.float64)
+        if pose.shape != (3,) or not np.isfinite(pose).all():
+            raise ValueError(f"sensor pose must be three finite numbers (x, y, theta), got {pose}")
         m = self.model
         self._grow_for(scan, pose)
         integrate_scan_dense(self.data, self.origin[0], self.origin[1], self.resolution, pose,

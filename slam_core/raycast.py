@@ -32,7 +32,9 @@ def trace_ray(gx0, gy0, gx1, gy1, out):
     """Write the cells crossed from ``(gx0, gy0)`` to ``(gx1, gy1)`` into ``out``.
 
     Coordinates are in cell units. ``out`` is an int array of shape ``(m, 2)``
-    large enough for ``|dx| + |dy| + 1`` cells. Returns the number of cells.
+    with room for ``|ex - ix| + |ey - iy| + 1`` cells (start cell ``(ix, iy)``, end
+    cell ``(ex, ey)``; at most ``|dx| + |dy| + 3``): a shorter buffer silently cuts
+    the ray. Returns the number of cells.
     """
     ix = int(np.floor(gx0))
     iy = int(np.floor(gy0))

@@ -21,6 +21,7 @@ def test_systematic_counts_are_floor_or_ceil_of_expected(weights, seed):
     assert np.all(counts >= np.floor(expected - 1e-9))
     assert np.all(counts <= np.ceil(expected + 1e-9))
     assert np.all(counts[w == 0] == 0)
+    assert np.all(np.diff(idx) >= 0)
 
 
 @settings(max_examples=15, deadline=None)

@@ -2,6 +2,8 @@ import numpy as np
 import pytest
 
 from app.cli import main
+from slam_core.evaluation import load_relations, relation_error
+from slam_core.geometry import transform_points
 from slam_core.io.carmen import CarmenReader, LaserRecord, OdomRecord
 from slam_core.io.ros_map import load_map
 from slam_core.io.trajectory import Trajectory
@@ -41,6 +43,19 @@ def test_log_reads_back_with_the_right_counts(flat_recording):
     assert np.hypot(*(truth.poses[-1, :2] - truth.poses[0, :2])) > 1.0  # it actually drove
 
 
+def test_relations_score_truth_perfectly_and_odometry_not(flat_recording):
+    _, rec = flat_recording
+    relations = load_relations(rec.relations)
+    # 12 s of tour: only the 1 s relations (loop relations need >= 30 s between revisits)
+    assert len(relations) == (rec.scans - 1) // 20
+    truth = Trajectory.load(rec.ground_truth)
+    perfect = relation_error(truth.times, truth.poses, relations)
+    assert perfect.count == len(relations) and perfect.trans.max() < 1e-5 and perfect.rot.max() < 1e-3
+    odometry = np.array([r.pose for r in CarmenReader(rec.log) if isinstance(r, LaserRecord)])
+    drift = relation_error(truth.times, odometry, relations)
+    assert drift.count == len(relations) and drift.trans.mean() > 1e-4
+
+
 def test_scans_match_ray_casting_from_the_true_pose(flat_recording):
     world, rec = flat_recording
     from slam_core.sim.lidar import Lidar
@@ -77,6 +92,16 @@ def test_ground_truth_scans_rebuild_the_ground_truth_walls(flat_recording):
             near |= np.roll(np.roll(gt_occ, dy, 0), dx, 1)
     precision = near[gy[inside], gx[inside]].mean()
     assert precision > 0.97
+    # recall: ground-truth wall cells the scans saw (hit at least twice) are rebuilt as walls
+    on_gt = np.zeros_like(gt_occ)
+    on_gt[gy[inside], gx[inside]] = True
+    near_rebuilt = np.zeros_like(gt_occ)
+    for dy in (-1, 0, 1):
+        for dx in (-1, 0, 1):
+            near_rebuilt |= np.roll(np.roll(on_gt, dy, 0), dx, 1)
+    seen = _hit_counts(grid, rec, gt) >= 2
+    assert (seen & gt_occ).sum() > 300
+    assert near_rebuilt[seen & gt_occ].mean() > 0.95
     # and the start pose is free floor in the ground-truth map
     sx, sy = gt.world_to_cell(world.start[:2])
     assert gt.trinary()[sy, sx] == 0
@@ -86,8 +111,8 @@ def test_cli_records_depth_camera_logs(tmp_path):
     out = tmp_path / "run"
     assert main(["sim", "record", "house", "--out", str(out), "--sensor", "depth", "--duration", "2",
                  "--seed", "4"]) == 0
-    for name in ("sim.clf", "groundtruth.txt", "groundtruth_map.pgm", "groundtruth_map.yaml",
-                 "groundtruth_map.png", "world.txt"):
+    for name in ("sim.clf", "groundtruth.txt", "groundtruth.relations", "groundtruth_map.pgm",
+                 "groundtruth_map.yaml", "groundtruth_map.png", "world.txt"):
         assert (out / name).is_file()
     lasers = [r for r in CarmenReader(out / "sim.clf") if isinstance(r, LaserRecord)]
     assert len(lasers) == 41
@@ -102,3 +127,35 @@ def test_cli_rejects_bad_input(tmp_path, capsys):
     assert main(["sim", "record", "flat", "--out", str(tmp_path), "--duration", "-1"]) == 2
     assert main(["sim", "worlds"]) == 0
     assert "house" in capsys.readouterr().out
+
+
+def _hit_counts(grid, rec, gt):
+    """How many beam endpoints of the log (placed at the true poses) fall in each ground-truth cell."""
+    truth = Trajectory.load(rec.ground_truth)
+    counts = np.zeros(gt.shape, int)
+    lasers = [r for r in CarmenReader(rec.log) if isinstance(r, LaserRecord)]
+    for r, pose in zip(lasers, truth.poses, strict=True):
+        cells = gt.world_to_cell(transform_points(pose, r.scan.points()))
+        np.add.at(counts, (cells[:, 1], cells[:, 0]), 1)
+    return counts
+
+
+def test_loop_relations_join_revisits(tmp_path):
+    from slam_core.sim.record import write_relations
+    # out along x for 40 s and back: poses 60+ s apart at the same place get a loop relation
+    t = np.arange(0, 1601) * 0.05
+    x = np.where(t <= 40, 0.1 * t, 8.0 - 0.1 * (t - 40))
+    poses = np.column_stack([x, np.zeros_like(x), np.where(t <= 40, 0.0, np.pi)])
+    truth = Trajectory([f"{v:.6f}" for v in t], poses)
+    relations = load_relations(write_relations(truth, tmp_path / "r.relations"))
+    long = relations[relations[:, 1] - relations[:, 0] > 1.5]
+    assert len(relations) == 80 + len(long) and len(long) > 0
+    assert np.all(long[:, 1] - long[:, 0] >= 30.0 - 1e-9)
+    # every loop relation is between the same place visited twice (within 3 m)
+    i1 = np.rint(long[:, 0] / 0.05).astype(int)
+    i2 = np.rint(long[:, 1] / 0.05).astype(int)
+    assert np.all(np.abs(x[i1] - x[i2]) <= 3.0)
+    assert np.allclose(np.hypot(long[:, 2], long[:, 3]), np.abs(x[i1] - x[i2]), atol=1e-5)
+    dth = np.abs(poses[i2, 2] - poses[i1, 2])
+    assert np.allclose(np.abs(long[:, 4]), dth, atol=1e-5)
+    assert np.any(dth == np.pi)  # some join the way out with the way back

@@ -5,7 +5,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from slam_core.sensors.wheel_odometry import DiffDriveGeometry
+from slam_core.sensors.wheel_odometry import DiffDriveGeometry, integrate_ticks
 from slam_core.sim.robot import RobotLimits, SimRobot, WheelNoise
 from slam_core.sim.world import load_world, parse_world
 from tests import naive_sim
@@ -29,6 +29,8 @@ def test_interface_types():
         r.set_velocity(float("nan"), 0.0)
     with pytest.raises(ValueError, match="dt"):
         r.step(0.0)
+    with pytest.raises(ValueError, match="finite"):
+        SimRobot(BOX, pose=[1.0, 1.0])
     with pytest.raises(ValueError, match="inside an obstacle"):
         SimRobot(BOX, pose=[0.05, 1.0, 0.0])
 
@@ -52,6 +54,21 @@ def test_noise_free_odometry_follows_truth_up_to_quantisation():
     # one tick is 0.15 mm of travel: the only error left is encoder quantisation
     assert np.allclose(r.odometry_pose[:2], r.true_pose[:2], atol=2e-3)
     assert abs(r.odometry_pose[2] - r.true_pose[2]) < 0.01
+
+
+def test_odometry_pose_is_integrate_ticks_over_the_tick_increments():
+    """What the odometry grabber will compute from the same ticks."""
+    r = SimRobot(load_world("flat"), noise=WheelNoise(0.01, 0.02, 0.3), rng=np.random.default_rng(7))
+    pose, last = r.odometry_pose, r.ticks()
+    for v, w in ((0.3, 0.0), (0.2, 0.8), (0.0, -1.0), (0.25, -0.3)):
+        r.set_velocity(v, w)
+        for _ in range(50):
+            r.step(0.02)
+            now = r.ticks()
+            pose = integrate_ticks(pose, now[0] - last[0], now[1] - last[1], r.geometry)
+            last = now
+    assert np.allclose(pose, r.odometry_pose, atol=1e-12)
+    assert not np.allclose(pose, r.true_pose, atol=1e-3)  # slip made it drift
 
 
 def test_encoder_quantisation():

@@ -6,6 +6,7 @@ import pytest
 from slam_core.sensors.depth_to_scan import depth_to_scan
 from slam_core.sim.depth_camera import DepthCamera, DepthCameraConfig, kinect_depth_sigma
 from slam_core.sim.lidar import Lidar, LidarConfig
+from slam_core.sim.raycast import cast_rays
 from slam_core.sim.world import parse_world
 
 # a long room: 2 m to the east wall from the robot at (1, 2), a low box and a tall post
@@ -81,13 +82,14 @@ def test_depth_camera_range_limits_and_noise_grow_with_distance():
     assert s_far == pytest.approx(kinect_depth_sigma(4.0), rel=0.3)
 
 
-def test_depth_grabber_on_simulated_image_matches_lidar():
+@pytest.mark.parametrize("pose, min_valid", [([9.0, 1.5, 0.2], 0.9), ([1.0, 2.0, 0.0], 0.1)])
+def test_depth_grabber_on_simulated_image_matches_ray_casting(pose, min_valid):
+    """The band around the optical centre sees walls, never the floor or ceiling (even down a long room)."""
     cam = DepthCamera(ROOM, DepthCameraConfig(noise=False, dropout=0.0))
-    pose = [9.0, 1.5, 0.2]
     scan = depth_to_scan(cam.render(pose), cam.intrinsics)
-    lidar = Lidar(ROOM, LidarConfig(range_noise_std=0.0, dropout=0.0))
-    from slam_core.sim.raycast import cast_rays
-    truth = cast_rays(pose, scan.angles, lidar.segments, lidar.circles)
+    truth = cast_rays(pose, scan.angles, *ROOM.obstacles())
     ok = scan.valid
-    assert ok.sum() > 0.9 * len(scan)
+    assert min_valid * len(scan) < ok.sum()
     assert np.allclose(scan.ranges[ok], truth[ok], atol=0.002)  # mm quantisation
+    # nothing valid where the wall is beyond 4.5 m of z-depth
+    assert not np.any(ok & (truth * np.cos(scan.angles) > 4.5 + 1e-3))

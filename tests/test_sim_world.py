@@ -44,6 +44,16 @@ def test_house_corridor_is_a_loop():
             assert clearance(p[0], p[1], w.segments, w.circles) > 0.3
 
 
+def test_house_tour_goes_round_the_loop():
+    """The tour (start -> waypoints -> back at start) winds once around the living room's east part."""
+    w = load_world("house")
+    path = np.vstack([w.start[:2], w.tour])
+    assert np.hypot(*(path[-1] - path[0])) < 0.1  # it ends where it started
+    angles = np.arctan2(path[:, 1] - 6.0, path[:, 0] - 14.0)
+    turns = np.sum((np.diff(angles) + np.pi) % (2 * np.pi) - np.pi) / (2 * np.pi)
+    assert abs(round(turns)) == 1 and abs(turns - round(turns)) < 1e-9
+
+
 @pytest.mark.parametrize("name", ["flat", "house"])
 def test_tour_legs_are_collision_free(name):
     """Every straight leg of the scripted tour keeps the robot disc (0.17 m) plus margin off all geometry."""
@@ -77,6 +87,7 @@ def test_minimal_world_fields():
 
 @pytest.mark.parametrize("text, line, words", [
     ("start 1 1 0\nroom r 0 0 4 3\nwal 0 0 1 1\n", 3, "unknown statement"),
+    ("start 1 1 0\nroom r 0 0 4 3\nbuild\n", 3, "unknown statement"),
     ("start 1 1\nroom r 0 0 4 3\n", 1, "expected 3 numbers"),
     ("start 1 1 0\nroom r 0 0 4 3\ndoor 1 1 2 2\n", 3, "does not lie on any wall"),
     ("start 1 1 0\nroom r 0 0 x 3\n", 2, "'x' is not a number"),

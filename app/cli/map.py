@@ -32,6 +32,9 @@ def run(args) -> int:
         result = map_from_odometry(log, args.resolution, SensorModel(usable_range=args.usable_range),
                                    progress=progress)
     elapsed = time.perf_counter() - started
+    if result.scans == 0:
+        raise ValueError(f"{log}: no laser records (FLASER, RLASER, ROBOTLASER1) to build a map from"
+                         + "".join(f"; {w}" for w in result.warnings))
     stem = args.out / "map"
     pgm, yml = save_map(result.grid, stem)
     png = save_png(result.grid, stem.with_suffix(".png"), result.trajectory.poses,

@@ -17,7 +17,8 @@ def register(sub) -> None:
     actions = p.add_subparsers(dest="action", required=True, metavar="ACTION")
     rec = actions.add_parser("record", help="drive the scripted tour and write a CARMEN log + ground truth",
                              description="Drive the world's scripted tour and write sim.clf (CARMEN, "
-                                         "odometry poses), groundtruth.txt, groundtruth_map.pgm/.yaml/.png.")
+                                         "odometry poses), groundtruth.txt, groundtruth.relations (for "
+                                         "homebot eval) and groundtruth_map.pgm/.yaml/.png.")
     rec.add_argument("world", help=f"world file, or a shipped world: {', '.join(world_names())}")
     rec.add_argument("--out", required=True, type=Path, help="output folder")
     rec.add_argument("--seed", type=int, default=0, help="random seed (%(default)s)")
@@ -43,7 +44,8 @@ def run_record(args) -> int:
     print(f"recorded {rec.scans} {args.sensor} scans over {rec.sim_time:.1f} simulated s in {wall:.1f} s "
           f"(tour {'completed' if rec.tour_completed else 'NOT completed'})")
     print(f"final odometry error: dx {err[0]:+.3f} m, dy {err[1]:+.3f} m, dtheta {err[2]:+.3f} rad")
-    print(f"wrote {rec.log}, {rec.ground_truth}, {rec.map_yaml}, {rec.map_pgm}, {rec.map_png}")
+    print(f"wrote {rec.log}, {rec.ground_truth}, {rec.relations}, {rec.map_yaml}, {rec.map_pgm}, "
+          f"{rec.map_png}")
     return 0
 
 

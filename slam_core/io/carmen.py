@@ -102,7 +102,12 @@ def open_log(path) -> BinaryIO:
 
 
 def flaser_angles(n: int) -> np.ndarray:
-    """Beam bearings of an ``n``-beam FLASER line under the datasets' 180-degree convention."""
+    """Beam bearings of an ``n``-beam FLASER line under the datasets' 180-degree convention.
+
+    An odd count is symmetric about straight ahead, so a single beam points at 0.
+    """
+    if n == 1:
+        return np.zeros(1)
     step = math.pi / n if n % 2 == 0 else math.pi / (n - 1)
     return uniform_angles(n, -math.pi / 2, step)
 
@@ -136,11 +141,15 @@ class CarmenReader:
                     pending = self._parse_checked(line_bytes, line_number)
                     if self.progress is not None and line_number % 2000 == 0:
                         self.progress(min(raw.tell() / size, 1.0))
-            except (EOFError, OSError) as exc:
+            except EOFError as exc:
                 if pending is not None:
                     yield pending
                 raise TruncatedLogError(self.path, line_number + 1,
                                         f"compressed stream ends early ({exc})") from exc
+            except OSError as exc:  # not compressed as the suffix says, or corrupt
+                if pending is not None:
+                    yield pending
+                raise LogFormatError(self.path, line_number + 1, f"cannot decompress ({exc})") from exc
             if pending is not None:
                 yield pending
             if self.progress is not None:
@@ -178,15 +187,19 @@ class CarmenReader:
             return None
         raise LogFormatError(self.path, line_number, f"unknown message {kind!r}")
 
-    def _numbers(self, fields, start, count, line_number, what):
+    def _numbers(self, fields, start, count, line_number, what, finite=False):
         if len(fields) < start + count:
             raise LogFormatError(self.path, line_number,
                                  f"{what}: expected {count} numbers from field {start + 1}, "
                                  f"line has {len(fields)} fields")
         try:
-            return np.array(fields[start:start + count], dtype=np.float64)
+            values = np.array(fields[start:start + count], dtype=np.float64)
         except ValueError as exc:
             raise LogFormatError(self.path, line_number, f"{what}: {exc}") from exc
+        if finite and not np.isfinite(values).all():
+            text = " ".join(fields[start:start + count])
+            raise LogFormatError(self.path, line_number, f"{what}: not finite ({text})")
+        return values
 
     def _stamp(self, fields, start, line_number, kind) -> Stamp:
         tail = fields[start:]
@@ -215,14 +228,33 @@ class CarmenReader:
 
     def _laser(self, kind, fields, line_number) -> LaserRecord:
         n = self._count(fields, 1, line_number, f"{kind} beam count")
+        if len(fields) not in (n + 10, n + 11) or not _is_number(fields[n + 8]):
+            self._check_beam_count(kind, fields, n, line_number)
         ranges = self._numbers(fields, 2, n, line_number, f"{kind} ranges")
-        poses = self._numbers(fields, 2 + n, 6, line_number, f"{kind} poses")
+        poses = self._numbers(fields, 2 + n, 6, line_number, f"{kind} poses", finite=True)
         stamp = self._stamp(fields, 8 + n, line_number, kind)
         angles = self._angles.get(n)
         if angles is None:
             angles = self._angles[n] = flaser_angles(n)
         scan = Scan(angles, ranges, self.range_min, self.no_return, stamp.ipc_time)
         return LaserRecord(kind, scan, poses[:3], poses[3:], stamp)
+
+    def _check_beam_count(self, kind, fields, n, line_number) -> None:
+        """Name the problem of a laser line whose ranges do not line up with its beam count."""
+        host = next((i for i in range(2, len(fields)) if not _is_number(fields[i])), None)
+        if host is None:
+            raise LogFormatError(self.path, line_number,
+                                 f"{kind}: no 'ipc_timestamp hostname' after the {n} ranges and 6 pose "
+                                 f"numbers (missing timestamp? the line has {len(fields)} fields)")
+        numbers, expected = host - 2, n + 6 + 1
+        if numbers == expected - 1:
+            raise LogFormatError(self.path, line_number,
+                                 f"{kind}: {numbers} numbers before the hostname, one short of {n} ranges "
+                                 f"+ 6 pose numbers + ipc_timestamp (missing timestamp or too few ranges)")
+        if numbers != expected:
+            raise LogFormatError(self.path, line_number,
+                                 f"{kind}: the beam count says {n} ranges but the line has {numbers - 7} "
+                                 f"(too {'few' if numbers < expected else 'many'} ranges)")
 
     def _robotlaser(self, fields, line_number) -> LaserRecord:
         kind = "ROBOTLASER1"
@@ -232,7 +264,7 @@ class CarmenReader:
         ranges = self._numbers(fields, 9, n, line_number, f"{kind} ranges")
         n_rem = self._count(fields, 9 + n, line_number, f"{kind} remission count", minimum=0)
         at = 10 + n + n_rem
-        poses = self._numbers(fields, at, 11, line_number, f"{kind} poses")
+        poses = self._numbers(fields, at, 11, line_number, f"{kind} poses", finite=True)
         stamp = self._stamp(fields, at + 11, line_number, kind)
         angles = uniform_angles(n, start_angle, resolution)
         rmax = max_range if max_range > 0 else self.no_return
@@ -240,9 +272,17 @@ class CarmenReader:
         return LaserRecord(kind, scan, poses[:3], poses[3:6], stamp)
 
     def _odom(self, fields, line_number) -> OdomRecord:
-        values = self._numbers(fields, 1, 6, line_number, "ODOM")
+        values = self._numbers(fields, 1, 6, line_number, "ODOM", finite=True)
         stamp = self._stamp(fields, 7, line_number, "ODOM")
         return OdomRecord(values[:3], float(values[3]), float(values[4]), stamp)
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
 
 
 def _decompressing(raw: BinaryIO, path: Path):
@@ -251,6 +291,15 @@ def _decompressing(raw: BinaryIO, path: Path):
     if path.suffix == ".gz":
         return gzip.GzipFile(fileobj=raw)
     return raw
+
+
+LASER_MESSAGES = (b"FLASER ", b"RLASER ", b"ROBOTLASER1 ")
+
+
+def count_laser_lines(path) -> int:
+    """How many laser lines a log has (a quick pass that parses nothing)."""
+    with open_log(path) as f:
+        return sum(1 for line in f if line.startswith(LASER_MESSAGES))
 
 
 def laser_records(path, progress=None) -> Iterator[LaserRecord]:

@@ -70,17 +70,20 @@ def load_map(yaml_path) -> OccupancyGrid:
     for key in ("image", "resolution", "origin"):
         if key not in meta:
             raise MapFileError(f"{yaml_path}: missing key {key!r}")
-    resolution = float(meta["resolution"])
-    origin = [float(v) for v in meta["origin"]]
-    if resolution <= 0 or len(origin) != 3:
+    try:
+        resolution = float(meta["resolution"])
+        origin = [float(v) for v in meta["origin"]]
+        occ_th = float(meta.get("occupied_thresh", OCCUPIED_THRESH))
+        free_th = float(meta.get("free_thresh", FREE_THRESH))
+    except (TypeError, ValueError) as exc:
+        raise MapFileError(f"{yaml_path}: resolution, origin and thresholds must be numbers ({exc})") from exc
+    if not resolution > 0 or len(origin) != 3:
         raise MapFileError(f"{yaml_path}: need resolution > 0 and origin [x, y, yaw]")
     if abs(origin[2]) > 1e-9:
         raise MapFileError(f"{yaml_path}: rotated map origins (yaw {origin[2]}) are not supported")
     mode = meta.get("mode", "trinary")
     if mode not in ("trinary", "scale", "raw"):
         raise MapFileError(f"{yaml_path}: unknown mode {mode!r}")
-    occ_th = float(meta.get("occupied_thresh", OCCUPIED_THRESH))
-    free_th = float(meta.get("free_thresh", FREE_THRESH))
     image_path = Path(meta["image"])
     if not image_path.is_absolute():
         image_path = yaml_path.parent / image_path
@@ -99,8 +102,8 @@ def load_map(yaml_path) -> OccupancyGrid:
         p = pixels / 255.0 if meta.get("negate", 0) else (255.0 - pixels) / 255.0
         known = (p > occ_th) | (p < free_th) if mode == "trinary" else np.ones(p.shape, bool)
     data = np.zeros(pixels.shape, np.float32)
-    data[p > occ_th] = m.l_max
-    data[p < free_th] = m.l_min
+    data[known & (p > occ_th)] = m.l_max
+    data[known & (p < free_th)] = m.l_min
     if mode != "trinary":
         between = known & (p >= free_th) & (p <= occ_th)
         data[between] = logit(np.clip(p[between], 1e-3, 1 - 1e-3))

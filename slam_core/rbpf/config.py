@@ -17,13 +17,18 @@ class MatcherParams:
     ``sigma`` (sigma): spread of the matching score; ``lsigma`` (lsigma): the
     observation likelihood; ``max_distance``: a beam with no surface within the
     kernel counts as this far off; ``linear_step`` / ``angular_step`` (lstep /
-    astep) and ``refinements`` (iterations): hill climbing; ``max_beams``: beams
-    used (evenly spread) per evaluation; ``min_matched``: the fraction of beams
-    that must match, else the particle falls back to the motion model;
-    ``sample_*``: spacing of the poses around the match at which the proposal is
-    evaluated. ``gain`` tempers the weights: a particle's weight is multiplied
-    by ``eta ** (1 / gain)``, because beams are far from independent (GMapping
-    divides by ogain times the particle count).
+    astep) and ``refinements`` (iterations): hill climbing of the leading
+    particle, which finds the odometry's error; ``particle_*``: the same for
+    every particle, starting from its prediction corrected by that error;
+    ``max_beams``: beams used (evenly spread) for matching; ``min_matched``: the
+    fraction of them that must match, else the particle falls back to the
+    motion model; ``sample_*``: spacing and beam count of the poses around the
+    match at which the proposal is evaluated; ``good_match``: the fraction of
+    matched beams above which the leading particle's match from the bare
+    prediction is trusted without the coarse search. ``gain`` tempers the
+    weights: a particle's weight is multiplied by ``eta ** (1 / gain)``,
+    because beams are far from independent (GMapping divides by ogain times
+    the particle count).
 
     ``coarse_*``: the correlative search for the odometry's error on the best
     particle's map (:mod:`slam_core.rbpf.correlative`): beams up to
@@ -42,13 +47,18 @@ class MatcherParams:
     linear_step: float = 0.025
     angular_step: float = 0.0125
     refinements: int = 5
-    max_beams: int = 120
+    particle_linear_step: float = 0.01
+    particle_angular_step: float = 0.005
+    particle_refinements: int = 2
+    max_beams: int = 90
     max_range: float = 20.0
     min_matched: float = 0.25
+    good_match: float = 0.6
     occupied_prob: float = 0.6
     free_prob: float = 0.45
     sample_linear: float = 0.02
     sample_angular: float = 0.01
+    sample_beams: int = 60
     coarse_range: float = 10.0
     coarse_beams: int = 90
     coarse_linear_cells: int = 6
@@ -68,13 +78,14 @@ class MatcherParams:
 @dataclass(frozen=True)
 class RBPFConfig:
     """The whole filter. ``linear_update`` / ``angular_update``: travel since the last
-    update that triggers the next one; ``resample_threshold``: resample when
-    ``N_eff < resample_threshold * N``."""
+    update that triggers the next one (GMapping uses 1.0 m / 0.5 rad; updating
+    more often costs time but keeps odometry's share of every pose small);
+    ``resample_threshold``: resample when ``N_eff < resample_threshold * N``."""
 
     particles: int = 30
     resolution: float = 0.05
-    linear_update: float = 0.5
-    angular_update: float = 0.25
+    linear_update: float = 0.1
+    angular_update: float = 0.05
     resample_threshold: float = 0.5
     motion: OdometryMotionModel = field(default_factory=OdometryMotionModel)
     sensor: SensorModel = field(default_factory=SensorModel)

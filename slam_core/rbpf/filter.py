@@ -24,7 +24,7 @@ from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.rbpf.config import RBPFConfig
 from slam_core.rbpf.correlative import likelihood_window, search
 from slam_core.rbpf.proposal import MIN_VARIANCE, improved_proposal
-from slam_core.rbpf.scan_matcher import hill_climb
+from slam_core.rbpf.scan_matcher import evaluate_pose, hill_climb
 from slam_core.rbpf.tiled_map import TiledMaps
 from slam_core.rbpf.trajectory_tree import ROOT, TrajectoryTree
 from slam_core.resampling import effective_sample_size, low_variance_resample, normalized
@@ -40,6 +40,7 @@ class RBPFStats:
     resamplings: int = 0
     matched: int = 0
     fallbacks: int = 0
+    coarse_searches: int = 0
     last_neff: float = 0.0
 
     def as_dict(self) -> dict:
@@ -121,6 +122,7 @@ class RBPFSlam:
         m = c.matcher
         n = c.particles
         beams = self._matching_beams(scan, m.max_range, m.max_beams)
+        sample_beams = self._matching_beams(scan, m.max_range, m.sample_beams)
         motion = np.array(decompose(*odom0, *odom1))
         predicted = compose(self.poses, relative(odom0, odom1))
         starts = compose(predicted, self._odometry_error(predicted, motion, scan, beams))
@@ -128,11 +130,11 @@ class RBPFSlam:
         new_poses = np.empty((n, 3))
         log_eta = np.empty(n)
         matched = np.empty(n, np.bool_)
-        search = np.array([m.linear_step, m.angular_step, m.refinements, m.sample_linear,
-                           m.sample_angular, m.min_matched * len(beams)])
+        search = np.array([m.particle_linear_step, m.particle_angular_step, m.particle_refinements,
+                           m.sample_linear, m.sample_angular, m.min_matched * len(beams)])
         improved_proposal(self.maps.tables, self.maps.lo, self.maps.hits, self.maps.origin[0],
                           self.maps.origin[1], self.maps.resolution, self.poses, starts, motion,
-                          c.motion.alphas, beams, self._params, search, MIN_VARIANCE, noise,
+                          c.motion.alphas, beams, sample_beams, self._params, search, MIN_VARIANCE, noise,
                           new_poses, log_eta, matched)
         self.poses = new_poses
         log_eta = log_eta / m.gain
@@ -168,10 +170,11 @@ class RBPFSlam:
                         beams: np.ndarray) -> np.ndarray:
         """The odometry's error (robot frame), found on the leading particle's map.
 
-        The coarse search's window widens with the odometry's rotation (its
-        worst errors come with fast turns). The leading particle is then matched
-        finely from both the prediction and the coarse result; the better match
-        defines the error applied to every particle's prediction.
+        The leading particle is matched finely from its prediction. When too few
+        beams match, a coarse correlative search, whose window widens with the
+        odometry's rotation (its worst errors come with fast turns), gives a
+        second start; the better fine match defines the error applied to every
+        particle's prediction.
         """
         m = self.config.matcher
         maps = self.maps
@@ -181,27 +184,28 @@ class RBPFSlam:
         res = maps.resolution
         fine = (table, maps.lo, maps.hits, maps.origin[0], maps.origin[1], res)
         climb = (beams, self._params, m.linear_step, m.angular_step, m.refinements)
-        starts = [pred]
+        x, y, th, best_score = hill_climb(*fine, pred[0], pred[1], pred[2], *climb)
+        best = np.array([x, y, th])
+        _, _, matched = evaluate_pose(*fine, x, y, th, beams, self._params)
         points = self._matching_beams(scan, m.coarse_range, m.coarse_beams)[:, :2]
-        if len(points):
-            turn = abs(motion[0]) + abs(motion[2])
-            angular = m.coarse_angular + 0.5 * turn
-            linear_cells = m.coarse_linear_cells + int(0.25 * abs(motion[1]) / res)
-            half = int(np.ceil(m.coarse_range / res)) + linear_cells + m.coarse_reach_cells
-            cx, cy = np.floor((pred[:2] - maps.origin) / res).astype(int)
-            field = likelihood_window(table, maps.lo, maps.origin[0], maps.origin[1], res, cx, cy, half,
-                                      self._params[3], m.coarse_sigma, m.coarse_reach_cells)
-            wx, wy = maps.origin + (np.array([cx, cy]) - half) * res
-            x, y, th, _ = search(field, res, wx, wy, pred[0], pred[1], pred[2], points, angular,
-                                 m.coarse_angular_step, linear_cells, m.coarse_prior_linear,
-                                 m.coarse_prior_angular + 0.5 * turn)
-            starts.append(np.array([x, y, th]))
-        best_pose, best_score = pred, -1.0
-        for start in starts:
-            x, y, th, score = hill_climb(*fine, start[0], start[1], start[2], *climb)
-            if score > best_score:
-                best_pose, best_score = np.array([x, y, th]), score
-        return relative(pred, best_pose)
+        if matched >= m.good_match * len(beams) or len(points) == 0:
+            return relative(pred, best)
+        self.stats.coarse_searches += 1
+        turn = abs(motion[0]) + abs(motion[2])
+        angular = m.coarse_angular + 0.5 * turn
+        linear_cells = m.coarse_linear_cells + int(0.25 * abs(motion[1]) / res)
+        half = int(np.ceil(m.coarse_range / res)) + linear_cells + m.coarse_reach_cells
+        cx, cy = np.floor((pred[:2] - maps.origin) / res).astype(int)
+        field = likelihood_window(table, maps.lo, maps.origin[0], maps.origin[1], res, cx, cy, half,
+                                  self._params[3], m.coarse_sigma, m.coarse_reach_cells)
+        wx, wy = maps.origin + (np.array([cx, cy]) - half) * res
+        sx, sy, sth, _ = search(field, res, wx, wy, pred[0], pred[1], pred[2], points, angular,
+                                m.coarse_angular_step, linear_cells, m.coarse_prior_linear,
+                                m.coarse_prior_angular + 0.5 * turn)
+        x, y, th, score = hill_climb(*fine, sx, sy, sth, *climb)
+        if score > best_score:
+            best = np.array([x, y, th])
+        return relative(pred, best)
 
     def _matching_beams(self, scan: Scan, max_range: float, max_beams: int) -> np.ndarray:
         """Rows ``(px, py, ux, uy)`` of up to ``max_beams`` evenly spread echoes."""

@@ -69,11 +69,13 @@ def _fit_and_draw(points, log_tau, noise, min_variance):
 
 @njit(parallel=True)
 def improved_proposal(tables, lo, hits, origin_x, origin_y, resolution, prev, starts, motion, alphas,
-                      beams, params, search, min_variance, noise, out_pose, out_logw, out_matched):
+                      beams, sample_beams, params, search, min_variance, noise, out_pose, out_logw,
+                      out_matched):
     """Draw every particle's new pose; fills ``out_pose``, ``out_logw`` (log eta), ``out_matched``.
 
     ``starts`` are the poses the matching starts from, ``motion`` is
-    ``(rot1, trans, rot2)`` of the odometry; ``search`` is
+    ``(rot1, trans, rot2)`` of the odometry; ``beams`` are matched and
+    ``sample_beams`` score the poses around the match; ``search`` is
     ``(linear_step, angular_step, refinements, sample_linear, sample_angular, min_matched_beams)``.
     """
     rot1, trans, rot2 = motion[0], motion[1], motion[2]
@@ -91,7 +93,7 @@ def improved_proposal(tables, lo, hits, origin_x, origin_y, resolution, prev, st
             x, y, th = apply_motion(x0, y0, th0, rot1 + s1 * noise[p, 0], trans + st * noise[p, 1],
                                     rot2 + s2 * noise[p, 2])
             _, ll, _ = evaluate_pose(table, lo, hits, origin_x, origin_y, resolution, x, y, th,
-                                     beams, params)
+                                     sample_beams, params)
             out_pose[p, 0] = x
             out_pose[p, 1] = y
             out_pose[p, 2] = th
@@ -108,7 +110,7 @@ def improved_proposal(tables, lo, hits, origin_x, origin_y, resolution, prev, st
                     y = my + j * search[3]
                     th = mth + a * search[4]
                     _, ll, _ = evaluate_pose(table, lo, hits, origin_x, origin_y, resolution,
-                                             x, y, th, beams, params)
+                                             x, y, th, sample_beams, params)
                     lm = log_likelihood_one(x0, y0, th0, x, y, th, rot1, trans, rot2, a1, a2, a3, a4)
                     points[k, 0] = x
                     points[k, 1] = y

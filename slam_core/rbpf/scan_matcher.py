@@ -2,8 +2,9 @@
 
 A beam's endpoint is scored against the *surface points* of the map: the mean
 endpoint of each occupied cell. Around the endpoint's cell the 3 x 3 kernel is
-searched for an occupied cell whose counterpart one cell back along the beam is
-free (the beam must arrive from free space); ``d`` is the distance from the
+searched for an occupied cell whose counterpart 1.5 cells back along the beam is
+free (the beam must arrive from free space; 1.5 rather than 1 so that an
+endpoint on a cell border never finds its own cell again); ``d`` is the distance from the
 endpoint to that cell's surface point. As in GMapping (Grisetti et al. 2007):
 
 - the matching score is ``sum_b exp(-d_b^2 / (2 sigma^2))`` over matched beams;
@@ -19,6 +20,9 @@ import numpy as np
 
 from slam_core.jit import njit
 from slam_core.rbpf.tiled_map import HIT_N, HIT_X, HIT_Y, TILE, TILE_BITS
+
+#: How far (in cells) behind a beam's endpoint its free-space check looks.
+FREE_STEP = 1.5
 
 
 @njit
@@ -45,7 +49,7 @@ def beam_distance2(table, lo, hits, origin_x, origin_y, resolution, ex, ey, fx, 
                    occupied_lo, free_lo):
     """Squared distance from endpoint ``(ex, ey)`` to the nearest surface point; inf if none.
 
-    ``(fx, fy)`` is the point one cell back along the beam; a candidate cell
+    ``(fx, fy)`` is the point ``FREE_STEP`` cells back along the beam; a candidate cell
     counts only if the cell at the same offset from the free point is free.
     """
     inv = 1.0 / resolution
@@ -88,6 +92,7 @@ def evaluate_pose(table, lo, hits, origin_x, origin_y, resolution, x, y, th, bea
     sigma2, lsigma2, dmax2, occupied_lo, free_lo = params[0], params[1], params[2], params[3], params[4]
     c = np.cos(th)
     s = np.sin(th)
+    back = FREE_STEP * resolution
     score = 0.0
     loglik = 0.0
     matched = 0
@@ -96,8 +101,8 @@ def evaluate_pose(table, lo, hits, origin_x, origin_y, resolution, x, y, th, bea
         py = beams[b, 1]
         ex = x + c * px - s * py
         ey = y + s * px + c * py
-        fx = ex - resolution * (c * beams[b, 2] - s * beams[b, 3])
-        fy = ey - resolution * (s * beams[b, 2] + c * beams[b, 3])
+        fx = ex - back * (c * beams[b, 2] - s * beams[b, 3])
+        fy = ey - back * (s * beams[b, 2] + c * beams[b, 3])
         d2 = beam_distance2(table, lo, hits, origin_x, origin_y, resolution, ex, ey, fx, fy,
                             occupied_lo, free_lo)
         if d2 < np.inf:

@@ -32,6 +32,8 @@ from slam_core.sim.world import World
 
 #: Hits kept per column (enough to look past low furniture and legs).
 HITS_PER_COLUMN = 8
+#: Depths further than this (m) outside the valid range cannot be brought into it by noise.
+NOISE_MARGIN = 0.5
 
 
 def kinect_depth_sigma(z):
@@ -106,10 +108,12 @@ class DepthCamera:
         c = self.config
         z = self.true_depth(pose)
         if rng is not None and c.noise:
-            finite = np.isfinite(z)
-            z[finite] += rng.normal(size=int(finite.sum())) * kinect_depth_sigma(z[finite])
+            # only pixels that noise could bring into range need a draw
+            near = np.flatnonzero((z > c.range_min - NOISE_MARGIN) & (z < c.range_max + NOISE_MARGIN))
+            flat = z.reshape(-1)
+            flat[near] += rng.standard_normal(near.size, dtype=np.float32) * kinect_depth_sigma(flat[near])
         bad = ~((z >= c.range_min) & (z <= c.range_max))
         if rng is not None and c.dropout > 0:
-            bad |= rng.random(z.shape) < c.dropout
+            bad |= rng.random(z.shape, dtype=np.float32) < c.dropout
         mm = np.where(bad, 0.0, np.rint(np.where(bad, 0.0, z) * 1000.0))
         return mm.astype(np.uint16)

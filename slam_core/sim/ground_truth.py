@@ -41,7 +41,8 @@ def _outline_points(world: World, min_height: float, spacing: float) -> np.ndarr
     return np.vstack(pts) if pts else np.zeros((0, 2))
 
 
-def occupied_mask(world: World, resolution: float, min_height: float = 0.0) -> OccupancyGrid:
+def occupied_mask(world: World, resolution: float,
+                  min_height: float = 0.0) -> tuple[OccupancyGrid, np.ndarray]:
     """An empty grid covering the world, and the boolean occupied mask of its cells."""
     xmin, ymin, xmax, ymax = world.bounds()
     res = float(resolution)

@@ -8,6 +8,9 @@ Writes into the output folder:
   scans are resampled to evenly spaced bearings first (ROBOTLASER1 needs them).
 - ``groundtruth.txt`` — the true pose of every scan, ``ipc_timestamp x y theta``
   with the same timestamp text as the log (:class:`slam_core.io.trajectory.Trajectory`).
+- ``groundtruth.relations`` — relations (Kümmerle et al. 2009) between true poses 1 s
+  apart and between revisits of the same place (loop relations), for
+  ``homebot eval TRAJECTORY groundtruth.relations``.
 - ``groundtruth_map.pgm`` / ``.yaml`` (ROS map_server) and ``groundtruth_map.png``
   (with the true path), rasterised from the geometry at least as tall as the sensor's
   mounting height (what the scan plane sees).
@@ -22,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from slam_core.geometry import wrap_angle
+from slam_core.geometry import relative, wrap_angle
 from slam_core.io.carmen_writer import odom_line, robotlaser_line
 from slam_core.io.render import save_png
 from slam_core.io.ros_map import save_map
@@ -34,6 +37,14 @@ from slam_core.sim.world import World
 
 LOG_NAME = "sim.clf"
 GROUND_TRUTH_NAME = "groundtruth.txt"
+RELATIONS_NAME = "groundtruth.relations"
+#: Scans between the two poses of a ground-truth relation (1 s at 20 Hz).
+RELATION_SPACING = 20
+#: Loop relations: poses sampled every LOOP_SAMPLE scans, at least LOOP_MIN_GAP scans apart,
+#: no further apart than LOOP_RADIUS metres.
+LOOP_SAMPLE = 100
+LOOP_MIN_GAP = 600
+LOOP_RADIUS = 3.0
 MAP_STEM = "groundtruth_map"
 
 
@@ -41,6 +52,7 @@ MAP_STEM = "groundtruth_map"
 class Recording:
     log: Path
     ground_truth: Path
+    relations: Path
     map_yaml: Path
     map_pgm: Path
     map_png: Path
@@ -83,6 +95,7 @@ def record_tour(world: World, out_dir, seed: int = 0, sensor: str = "lidar", dur
                 progress(min(done, 1.0))
     traj = Trajectory(stamps, np.array(truth).reshape(-1, 3))
     gt_path = traj.save(out / GROUND_TRUTH_NAME)
+    rel_path = write_relations(traj, out / RELATIONS_NAME)
     seen_from = config.lidar.mount_height if config.sensor == "lidar" else config.depth.mount_height
     grid = ground_truth_map(world, resolution, seen_from)
     pgm, yml = save_map(grid, out / MAP_STEM)
@@ -92,5 +105,29 @@ def record_tour(world: World, out_dir, seed: int = 0, sensor: str = "lidar", dur
         shutil.copyfile(world.source, out / "world.txt")
     err = frame.odometry_pose - frame.true_pose
     err[2] = float(wrap_angle(err[2]))
-    return Recording(out / LOG_NAME, gt_path, yml, pgm, png, len(stamps), frame.time,
+    return Recording(out / LOG_NAME, gt_path, rel_path, yml, pgm, png, len(stamps), frame.time,
                      bool(sim.controller.done), err)
+
+
+def write_relations(truth: Trajectory, path, spacing: int = RELATION_SPACING) -> Path:
+    """Relations ``t1 t2 x y z roll pitch yaw`` between true poses, as Kümmerle et al. pick them.
+
+    Local relations join poses ``spacing`` scans apart; loop relations join poses
+    sampled every ``LOOP_SAMPLE`` scans that are at least ``LOOP_MIN_GAP`` scans apart
+    in time but within ``LOOP_RADIUS`` metres (the same place revisited), so that
+    drift and failed loop closures show in the score.
+    """
+    poses = truth.poses
+    i = np.arange(0, len(poses) - spacing, spacing)
+    pairs = list(zip(i.tolist(), (i + spacing).tolist(), strict=True))
+    samples = np.arange(0, len(poses), LOOP_SAMPLE)
+    for k, a in enumerate(samples):
+        for b in samples[k + 1:]:
+            if b - a >= LOOP_MIN_GAP and np.hypot(*(poses[b, :2] - poses[a, :2])) <= LOOP_RADIUS:
+                pairs.append((int(a), int(b)))
+    with open(path, "w") as f:
+        for a, b in pairs:
+            dx, dy, dth = relative(poses[a], poses[b])
+            f.write(f"{truth.stamps[a]} {truth.stamps[b]} {dx:.6f} {dy:.6f} 0.000000 "
+                    f"0.000000 0.000000 {dth:.6f}\n")
+    return Path(path)

@@ -52,6 +52,11 @@ DOOR_TOLERANCE = 1e-6
 MIN_WALL_PIECE = 1e-6
 
 
+#: The statements of the format, each handled by ``_Parser._<statement>``.
+STATEMENTS = ("name", "ceiling", "start", "wall", "polygon", "room", "door", "furniture", "leg", "table",
+              "waypoint")
+
+
 class WorldFormatError(ValueError):
     """A world file that cannot be read; the message names the file, line and problem."""
 
@@ -195,11 +200,10 @@ class _Parser:
             if not fields:
                 continue
             keyword, args = fields[0].lower(), fields[1:]
-            handler = getattr(self, f"_{keyword}", None)
-            if handler is None:
-                raise self.error(f"unknown statement {fields[0]!r} (expected one of: name, ceiling, "
-                                 "start, wall, polygon, room, door, furniture, leg, table, waypoint)")
-            handler(args)
+            if keyword not in STATEMENTS:
+                raise self.error(f"unknown statement {fields[0]!r} "
+                                 f"(expected one of: {', '.join(STATEMENTS)})")
+            getattr(self, f"_{keyword}")(args)
         self.line = max(self.line, 1)
         if self.start is None:
             raise self.error("no 'start x y theta_degrees' line")

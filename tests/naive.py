@@ -1,0 +1,99 @@
+"""Slow, obvious references for the foundation's fast kernels.
+
+Nothing here is clever: every cell of a bounding box is tested on its own, and
+the scan update is written beam by beam, cell by cell, in plain Python.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+def ray_cells(gx0, gy0, gx1, gy1):
+    """Cells ``[(ix, iy), ...]`` crossed by the segment, ordered by entry parameter.
+
+    Cells are the half-open squares ``[ix, ix + 1) x [iy, iy + 1)`` (so a point on a
+    border belongs to the cell above/right of it). A cell is kept when the part of
+    the segment inside it has positive length; the cells holding the start and end
+    points are always kept. For every cell of the bounding box the segment
+    ``P(t) = P0 + t (P1 - P0)``, ``0 <= t <= 1`` is clipped against the square.
+    """
+    dx, dy = gx1 - gx0, gy1 - gy0
+    start = (math.floor(gx0), math.floor(gy0))
+    end = (math.floor(gx1), math.floor(gy1))
+    found = {start: -1.0, end: 2.0}
+    for ix in range(min(start[0], end[0]), max(start[0], end[0]) + 1):
+        tx = _slab(gx0, dx, ix)
+        if tx is None:
+            continue
+        for iy in range(min(start[1], end[1]), max(start[1], end[1]) + 1):
+            ty = _slab(gy0, dy, iy)
+            if ty is None:
+                continue
+            lo = max(tx[0], ty[0], 0.0)
+            hi = min(tx[1], ty[1], 1.0)
+            if hi > lo and (ix, iy) not in (start, end):
+                found[(ix, iy)] = lo
+    return sorted(found, key=found.get)
+
+
+def _slab(p0, d, k):
+    """Parameter interval where ``p0 + t d`` lies in ``[k, k + 1)``; None if never."""
+    if d == 0.0:
+        return (-math.inf, math.inf) if k <= p0 < k + 1 else None
+    a, b = (k - p0) / d, (k + 1 - p0) / d
+    return (min(a, b), max(a, b))
+
+
+def integrate_scan(logodds, origin, resolution, pose, scan, model):
+    """The inverse sensor model applied beam by beam with :func:`ray_cells`.
+
+    Updates ``logodds`` (float32, ``[iy, ix]``) in place exactly as the kernel
+    documents: ``l_free`` on every traced cell of a beam, ``l_occ`` instead on its
+    echo cell, each sum clamped to ``[l_min, l_max]``. Raises if a cell lies outside.
+    """
+    px, py, pth = (float(v) for v in pose)
+    ox, oy = float(origin[0]), float(origin[1])
+    for angle, rng in zip(scan.angles, scan.ranges, strict=True):
+        rng = float(rng)
+        if math.isnan(rng) or rng < scan.range_min or rng <= 0.0:
+            continue
+        if rng >= scan.range_max:
+            hit, r = False, min(model.no_return_range, model.usable_range)
+        elif rng > model.usable_range:
+            hit, r = False, model.usable_range
+        else:
+            hit, r = True, rng
+        a = pth + float(angle)
+        ex, ey = px + r * math.cos(a), py + r * math.sin(a)
+        inv = 1.0 / resolution
+        cells = ray_cells((px - ox) * inv, (py - oy) * inv, (ex - ox) * inv, (ey - oy) * inv)
+        for k, (ix, iy) in enumerate(cells):
+            if not (0 <= iy < logodds.shape[0] and 0 <= ix < logodds.shape[1]):
+                raise IndexError(f"cell {(ix, iy)} outside grid {logodds.shape}")
+            delta = model.l_occ if hit and k == len(cells) - 1 else model.l_free
+            v = float(logodds[iy, ix]) + delta
+            logodds[iy, ix] = min(max(v, model.l_min), model.l_max)
+
+
+def nearest_indices(times, queries, max_dt):
+    """Brute force: for each query the index of the closest time (-1 if none within max_dt)."""
+    out = []
+    for q in queries:
+        d = [abs(t - q) for t in times]
+        best = min(range(len(times)), key=lambda i: (d[i], i))
+        out.append(best if d[best] <= max_dt else -1)
+    return np.array(out, dtype=np.int64)
+
+
+def compose(a, b):
+    """``a ⊕ b`` with 3x3 homogeneous matrices."""
+    m = _matrix(a) @ _matrix(b)
+    return np.array([m[0, 2], m[1, 2], math.atan2(m[1, 0], m[0, 0])])
+
+
+def _matrix(p):
+    c, s = math.cos(p[2]), math.sin(p[2])
+    return np.array([[c, -s, p[0]], [s, c, p[1]], [0.0, 0.0, 1.0]])

@@ -1,0 +1,104 @@
+"""Copy-on-write tiled maps: equal to the dense grid, shared until written."""
+
+import numpy as np
+
+from slam_core.occupancy_grid import OccupancyGrid
+from slam_core.rbpf.tiled_map import TILE, TiledMaps
+from slam_core.scan import Scan
+
+
+def random_scan(rng, n=90):
+    angles = np.sort(rng.uniform(-np.pi, np.pi, n))
+    ranges = rng.uniform(0.2, 6.0, n)
+    ranges[rng.random(n) < 0.1] = 80.0  # no return
+    return Scan(angles, ranges, 0.1, 80.0)
+
+
+def aligned(a: OccupancyGrid, b: OccupancyGrid):
+    """The overlapping windows of two grids on the same lattice, and the cell counts outside."""
+    x0 = np.maximum(a.origin, b.origin)
+    x1 = np.minimum(np.array(a.extent()[2:]), np.array(b.extent()[2:]))
+    ia = np.round((x0 - a.origin) / a.resolution).astype(int)
+    ib = np.round((x0 - b.origin) / b.resolution).astype(int)
+    nx, ny = np.round((x1 - x0) / a.resolution).astype(int)
+    wa = a.data[ia[1]:ia[1] + ny, ia[0]:ia[0] + nx]
+    wb = b.data[ib[1]:ib[1] + ny, ib[0]:ib[0] + nx]
+    outside = np.count_nonzero(a.data) - np.count_nonzero(wa), np.count_nonzero(b.data) - np.count_nonzero(wb)
+    return wa, wb, outside
+
+
+def dense_equivalent(maps: TiledMaps, index: int, scans_and_poses) -> None:
+    grid = OccupancyGrid(maps.resolution, model=maps.model)
+    for scan, pose in scans_and_poses:
+        grid.integrate(scan, pose)
+    a, b, outside = aligned(grid, maps.to_grid(index))
+    np.testing.assert_allclose(a, b, atol=1e-5)
+    assert outside == (0, 0)
+
+
+def test_tiled_integration_equals_the_dense_grid():
+    rng = np.random.default_rng(3)
+    maps = TiledMaps(3, 0.05)
+    history = {i: [] for i in range(3)}
+    for _ in range(5):
+        poses = np.column_stack([rng.uniform(-3, 3, 3), rng.uniform(-3, 3, 3), rng.uniform(-3, 3, 3)])
+        scan = random_scan(rng)
+        maps.integrate(poses, scan)
+        for i in range(3):
+            history[i].append((scan, poses[i]))
+    for i in range(3):
+        dense_equivalent(maps, i, history[i])
+
+
+def test_copies_share_tiles_until_they_write():
+    rng = np.random.default_rng(5)
+    maps = TiledMaps(30, 0.05)
+    scan = random_scan(rng)
+    maps.integrate(np.zeros((30, 3)), scan)
+    maps.resample(np.zeros(30, np.int64))
+    one_map = maps.tiles_in_use
+    assert np.all(maps.tables == maps.tables[0])  # every particle points at the same tiles
+    assert one_map == int(np.sum(maps.tables[0] >= 0))  # thirty maps in the memory of one
+
+
+def test_a_copy_writes_its_own_tiles_and_leaves_its_sibling_untouched():
+    rng = np.random.default_rng(7)
+    maps = TiledMaps(2, 0.05)
+    maps.integrate(np.zeros((2, 3)), random_scan(rng))
+    maps.resample(np.array([0, 0]))
+    shared = maps.tiles_in_use
+    before = maps.to_grid(1)
+    # Map 0 sees a new scan where both maps have cells; map 1 sees one far away.
+    maps.integrate(np.array([[0.5, 0.2, 0.3], [60.0, 60.0, 0.0]]), random_scan(rng))
+    a, b, _ = aligned(before, maps.to_grid(1))
+    np.testing.assert_array_equal(a, b)  # map 1's old area: unchanged by map 0's write
+    a, b, _ = aligned(before, maps.to_grid(0))
+    assert not np.array_equal(a, b)  # map 0 did change there
+    copied = int(np.sum((maps.tables[0] >= 0) & (maps.tables[0] != maps.tables[1])))
+    assert maps.tiles_in_use > shared
+    assert copied > 0 and np.sum(maps.tables[0] == maps.tables[1]) + copied >= shared
+
+
+def test_resampling_frees_tiles_nobody_holds():
+    rng = np.random.default_rng(11)
+    maps = TiledMaps(4, 0.05)
+    poses = np.array([[0, 0, 0], [20, 0, 0], [0, 20, 0], [20, 20, 0]], float)
+    maps.integrate(poses, random_scan(rng))
+    per_map = [int(np.sum(maps.tables[i] >= 0)) for i in range(4)]
+    assert maps.tiles_in_use == sum(per_map)
+    maps.resample(np.array([2, 2, 2, 2]))
+    assert maps.tiles_in_use == per_map[2]
+    assert np.all(maps.refs[maps.tables[0][maps.tables[0] >= 0]] == 4)
+
+
+def test_grid_round_trip_through_seed():
+    rng = np.random.default_rng(13)
+    grid = OccupancyGrid(0.05)
+    grid.integrate(random_scan(rng), [1.0, -2.0, 0.3])
+    maps = TiledMaps(5, 0.05)
+    maps.seed_from_grid(grid)
+    assert maps.tiles_in_use == int(np.sum(maps.tables[0] >= 0))  # one copy shared by five maps
+    a, b, outside = aligned(grid, maps.to_grid(3))
+    np.testing.assert_allclose(a, b)
+    assert outside == (0, 0)
+    assert maps.to_grid(3).shape[0] % TILE == 0
