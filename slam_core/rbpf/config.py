@@ -47,9 +47,9 @@ class MatcherParams:
     linear_step: float = 0.025
     angular_step: float = 0.0125
     refinements: int = 5
-    particle_linear_step: float = 0.01
-    particle_angular_step: float = 0.005
-    particle_refinements: int = 2
+    particle_linear_step: float = 0.025
+    particle_angular_step: float = 0.0125
+    particle_refinements: int = 5
     max_beams: int = 90
     max_range: float = 20.0
     min_matched: float = 0.25
@@ -84,8 +84,8 @@ class RBPFConfig:
 
     particles: int = 30
     resolution: float = 0.05
-    linear_update: float = 0.1
-    angular_update: float = 0.05
+    linear_update: float = 0.2
+    angular_update: float = 0.1
     resample_threshold: float = 0.5
     motion: OdometryMotionModel = field(default_factory=OdometryMotionModel)
     sensor: SensorModel = field(default_factory=SensorModel)
