@@ -49,7 +49,8 @@ class Runtime:
         settings.maps_dir.mkdir(parents=True, exist_ok=True)
         self.store = Store(settings.db_path)
         self.hub = Hub(self.full_map_frame, settings.client_send_timeout_s)
-        self.navigator = Navigator(settings, self.current_grid, self.current_pose, self.send_velocity)
+        tour = load_world(settings.world).tour if settings.simulation and settings.sim_tour else None
+        self.navigator = Navigator(settings, self.current_grid, self.current_pose, self.send_velocity, tour)
         self.sim: SimHandles | None = None
         self.supervisor: WorkerSupervisor | None = None
         self.latest: dict | None = None
@@ -233,7 +234,7 @@ class Runtime:
                                               "resolution": snap.resolution, "origin": list(snap.origin),
                                               "seq": snap.seq},
             "goal": nav.goal.dict() if nav.goal else None,
-            "nav": {"state": nav.state, "reason": nav.reason},
+            "nav": {"state": nav.state, "reason": nav.reason, "touring": nav.touring},
             "path_length": nav.path_length(),
             "rates": {"state_hz": round(self.state_rate(), 2), "stream_hz": self.settings.stream_hz,
                       "map_hz": self.settings.map_hz},

@@ -49,7 +49,7 @@ class LiveServer:
 
     def start(self) -> LiveServer:
         self.port = free_port()
-        env = {**os.environ, **self.env, "PYTHONPATH": str(ROOT)}
+        env = {**os.environ, "HOMEBOT_SIM_TOUR": "0", **self.env, "PYTHONPATH": str(ROOT)}
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "app.cli", "serve", "--port", str(self.port), "--data", str(self.data_dir),
              "--world", self.world],

@@ -228,3 +228,24 @@ def test_killed_worker_restarts_and_the_map_is_still_there(server):
     assert math.hypot(pose_after["x"] - pose_before["x"], pose_after["y"] - pose_before["y"]) < 1.0
     with server.client() as c:
         assert c.get("/api/map.png").content[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_an_idle_simulated_robot_tours_until_a_person_takes_over(tmp_path):
+    """The default: the robot drives the world's tour by itself; teleop ends the tour."""
+    touring = LiveServer(tmp_path / "tour", env={"HOMEBOT_SIM_TOUR": "1"}).start()
+    try:
+        with touring.client() as c:
+            start = np.array(c.get("/api/status").json()["true_pose"][:2])
+            deadline = time.monotonic() + 60
+            moved = 0.0
+            while time.monotonic() < deadline and moved < 1.0:
+                time.sleep(1.0)
+                status = c.get("/api/status").json()
+                moved = float(np.hypot(*(np.array(status["true_pose"][:2]) - start)))
+            assert moved >= 1.0, status
+            assert status["nav"]["touring"] and status["goal"]["place"] == "tour"
+            assert c.post("/api/teleop", json={"v": 0.0, "w": 0.0}).status_code == 200
+            status = c.get("/api/status").json()
+            assert not status["nav"]["touring"] and status["goal"] is None
+    finally:
+        touring.stop()

@@ -24,6 +24,9 @@ class Settings(BaseSettings):
     data_dir: Path = Path("./data")
     world: str = "flat"
     simulation: bool = True
+    #: Simulation only: drive the world's scripted tour until someone gives the robot a goal,
+    #: steers it or cancels, so that a first visitor sees the home being mapped.
+    sim_tour: bool = True
     serial_port: str = "/dev/ttyUSB0"
     serial_baud: int = Field(115200, gt=0)
     #: Real robot only: ``module:callable`` returning an iterator of :class:`slam_core.scan.Scan`.

@@ -33,11 +33,20 @@ class Goal:
         return {"x": self.x, "y": self.y, "place": self.place}
 
 
+#: The place name tour goals carry.
+TOUR = "tour"
+
+
 class Navigator:
-    """Goal, path and state (``idle``, ``driving``, ``arrived``, ``failed``) of the robot."""
+    """Goal, path and state (``idle``, ``driving``, ``arrived``, ``failed``) of the robot.
+
+    Given ``tour`` waypoints, an idle robot drives to them in turn until a person takes over
+    (a goal, teleop or a cancel from the API).
+    """
 
     def __init__(self, settings: Settings, grid: Callable[[], OccupancyGrid | None],
-                 pose: Callable[[], np.ndarray | None], send_velocity: Callable[[float, float], None]):
+                 pose: Callable[[], np.ndarray | None], send_velocity: Callable[[float, float], None],
+                 tour: np.ndarray | None = None):
         self.settings = settings
         self._grid = grid
         self._pose = pose
@@ -53,6 +62,8 @@ class Navigator:
         self._replanning = False
         self._replan_task: asyncio.Task | None = None
         self._generation = 0
+        self._tour = None if tour is None or len(tour) == 0 else np.asarray(tour, float)
+        self._tour_next = 0
 
     def snapshot(self) -> dict:
         return {"goal": self.goal.dict() if self.goal else None,
@@ -69,8 +80,18 @@ class Navigator:
             raise PlanningError("the robot has no map or pose yet")
         return await asyncio.to_thread(plan_path, grid, np.asarray(pose, float), (goal.x, goal.y))
 
+    @property
+    def touring(self) -> bool:
+        return self._tour is not None
+
+    def take_over(self) -> None:
+        """A person is in charge from now on: the tour ends."""
+        self._tour = None
+
     async def set_goal(self, goal: Goal) -> dict:
         """Plan to ``goal`` and start driving; raises :class:`PlanningError` (the reason) when impossible."""
+        if goal.place != TOUR:
+            self.take_over()
         path = await self._plan(goal)
         self._generation += 1
         self._teleop = None
@@ -88,6 +109,7 @@ class Navigator:
 
     def teleop(self, v: float, w: float) -> None:
         """Drive by hand for ``teleop_hold_s``; cancels any goal."""
+        self.take_over()
         if self.goal is not None:
             self.cancel()
         self._teleop = (float(v), float(w))
@@ -115,6 +137,8 @@ class Navigator:
                 self._send(0.0, 0.0)
             return
         if self.state != "driving" or self.goal is None:
+            if self._tour is not None:
+                await self._next_tour_stop()
             return
         pose = self._pose()
         if pose is None:
@@ -131,6 +155,17 @@ class Navigator:
             self._replan_task = asyncio.create_task(self._replan(self._generation))
         v, w = self._follower.command(np.asarray(pose, float))
         self._send(v, w)
+
+    async def _next_tour_stop(self) -> None:
+        """Head for the tour's next waypoint; one that cannot be planned yet is skipped."""
+        if self._grid() is None or self._pose() is None:
+            return
+        x, y = self._tour[self._tour_next % len(self._tour)]
+        self._tour_next += 1
+        try:
+            await self.set_goal(Goal(float(x), float(y), TOUR))
+        except PlanningError as exc:
+            log.info("tour stop (%.2f, %.2f) skipped: %s", x, y, exc)
 
     async def _replan(self, generation: int) -> None:
         """Plan again on the grown map; a goal that became impossible fails with the reason."""

@@ -36,6 +36,7 @@ async def create_goal(body: GoalBody, runtime: RuntimeDep, store: StoreDep) -> d
 @router.delete("/goal", response_model=Ok)
 def delete_goal(runtime: RuntimeDep) -> Ok:
     """Cancel the goal and stop the robot."""
+    runtime.navigator.take_over()
     runtime.navigator.cancel()
     return Ok()
 

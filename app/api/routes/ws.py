@@ -41,6 +41,7 @@ async def _handle(runtime: Runtime, client, text: str) -> None:
         if kind == "ping":
             reply("pong", message)
         elif kind == "cancel":
+            runtime.navigator.take_over()
             runtime.navigator.cancel()
         elif kind == "teleop":
             body = TeleopBody(**message)
