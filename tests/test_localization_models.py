@@ -8,10 +8,10 @@ from naive_localization import beam_log_lik, likelihood_field_log_lik, march_ran
 from scipy.ndimage import distance_transform_edt
 from scipy.stats import chi2
 
+from slam_core.distance_transform import distance_transform
 from slam_core.localization.beam_model import BeamModel, BeamModelParams, cast_ray
 from slam_core.localization.beams import select_beams
 from slam_core.localization.clustering import main_cluster
-from slam_core.localization.distance_transform import distance_transform
 from slam_core.localization.kld import adaptive_count, kld_bound, pose_bins
 from slam_core.localization.known_map import KnownMap
 from slam_core.localization.likelihood_field import LikelihoodFieldModel, LikelihoodFieldParams

@@ -5,7 +5,7 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from scipy.ndimage import distance_transform_edt
 
-from slam_core.planning.distance import distance_to_features
+from slam_core.distance_transform import distance_to_features
 
 grids = st.tuples(st.integers(1, 40), st.integers(1, 40)).flatmap(
     lambda shape: arrays(np.bool_, shape, elements=st.booleans() | st.just(False)))

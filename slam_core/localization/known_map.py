@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from slam_core.localization.distance_transform import distance_transform
+from slam_core.distance_transform import distance_transform
 from slam_core.occupancy_grid import OccupancyGrid
 
 #: trinary() values of the ROS map convention.

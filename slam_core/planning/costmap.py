@@ -2,7 +2,7 @@
 
 Every cell gets a *weight* ``w >= 1`` (the price of one metre through it) or
 ``inf`` (never entered). With ``d`` the exact Euclidean distance (metres, cell
-centre to cell centre, :mod:`slam_core.planning.distance`) to the nearest
+centre to cell centre, :mod:`slam_core.distance_transform`) to the nearest
 occupied cell, ``r`` the robot radius and ``R`` the inflation radius::
 
     d <= r        lethal: w = inf    (the robot's centre there would hit the wall)
@@ -23,8 +23,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from slam_core.distance_transform import distance_to_features
 from slam_core.occupancy_grid import FREE_THRESH, OCCUPIED_THRESH, OccupancyGrid
-from slam_core.planning.distance import distance_to_features
 
 #: Default robot radius (m): a 35 cm round home robot.
 ROBOT_RADIUS = 0.18

@@ -89,3 +89,8 @@ def distance_to_features(features: np.ndarray) -> np.ndarray:
     if features.size == 0:
         return np.zeros(features.shape, np.float64)
     return np.sqrt(_squared_edt(np.ascontiguousarray(features, dtype=np.bool_)))
+
+
+def distance_transform(features: np.ndarray, resolution: float = 1.0) -> np.ndarray:
+    """Euclidean distance in metres (at ``resolution`` m/cell) to the nearest ``True`` cell."""
+    return distance_to_features(features) * float(resolution)
