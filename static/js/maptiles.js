@@ -1,0 +1,147 @@
+// The map as the browser keeps it: one offscreen canvas per 64x64-cell tile, filled from decoded map
+// frames (mapframe.js). A FULL frame replaces every tile; a delta repaints only the tiles it carries.
+// Tiles are drawn in world coordinates (view.matrix), so zoom and pan cost no re-decoding.
+
+import { UNKNOWN } from "./mapframe.js";
+
+const UNKNOWN_RGBA = [205, 210, 216, 255];
+const FREE_RGB = [252, 252, 250];
+const OCCUPIED_RGB = [33, 37, 48];
+
+// Cell value (0..100 percent occupied, 255 unknown) -> packed little-endian RGBA (for a Uint32Array).
+function buildPalette() {
+  const palette = new Uint32Array(256);
+  const pack = (r, g, b, a) => ((a << 24) | (b << 16) | (g << 8) | r) >>> 0;
+  palette.fill(pack(...UNKNOWN_RGBA));
+  for (let p = 0; p <= 100; p++) {
+    const t = p / 100;
+    const rgb = FREE_RGB.map((free, k) => Math.round(free + (OCCUPIED_RGB[k] - free) * t));
+    palette[p] = pack(rgb[0], rgb[1], rgb[2], 255);
+  }
+  return palette;
+}
+
+export const PALETTE = buildPalette();
+export const UNKNOWN_COLOR = UNKNOWN_RGBA;
+
+function makeCanvas(size) {
+  if (typeof OffscreenCanvas !== "undefined") return new OffscreenCanvas(size, size);
+  const canvas = document.createElement("canvas");
+  canvas.width = size;
+  canvas.height = size;
+  return canvas;
+}
+
+export class MapTiles {
+  constructor() {
+    this.clear();
+  }
+
+  clear() {
+    this.tiles = new Map(); // tile index -> {tx, ty, canvas, known}
+    this.meta = null; // {tileSize, resolution, originX, originY, width, height, tilesX, tilesY, seq}
+    this.version = 0; // bumps on every applied frame (the renderer redraws when it changes)
+  }
+
+  get ready() {
+    return this.meta !== null;
+  }
+
+  // Apply a decoded frame; returns false for a delta that does not fit the current map (dropped).
+  apply(frame) {
+    if (frame.full) {
+      this.tiles = new Map();
+      this.meta = {
+        tileSize: frame.tileSize,
+        resolution: frame.resolution,
+        originX: frame.originX,
+        originY: frame.originY,
+        width: frame.width,
+        height: frame.height,
+        tilesX: frame.tilesX,
+        tilesY: frame.tilesY,
+        seq: frame.seq,
+      };
+    } else {
+      const m = this.meta;
+      const fits =
+        m !== null &&
+        m.tileSize === frame.tileSize &&
+        m.width === frame.width &&
+        m.height === frame.height &&
+        m.originX === frame.originX &&
+        m.originY === frame.originY;
+      if (!fits) return false;
+      m.seq = frame.seq;
+    }
+    for (const tile of frame.tiles) this._paint(tile);
+    this.version++;
+    return true;
+  }
+
+  _paint({ index, tx, ty, cells }) {
+    const size = this.meta.tileSize;
+    let entry = this.tiles.get(index);
+    if (!entry) {
+      entry = { tx, ty, canvas: makeCanvas(size), known: 0 };
+      this.tiles.set(index, entry);
+    }
+    const image = new ImageData(size, size);
+    const pixels = new Uint32Array(image.data.buffer);
+    let known = 0;
+    for (let i = 0; i < cells.length; i++) {
+      const value = cells[i];
+      if (value !== UNKNOWN) known++;
+      pixels[i] = PALETTE[value];
+    }
+    // Row 0 of the tile is its smallest y; the world transform (y up) puts image row 0 at the bottom.
+    entry.canvas.getContext("2d").putImageData(image, 0, 0);
+    entry.known = known;
+  }
+
+  // World rectangle [x0, y0, x1, y1] covered by the map, or null before the first full frame.
+  bounds() {
+    const m = this.meta;
+    if (!m) return null;
+    return [m.originX, m.originY, m.originX + m.width * m.resolution, m.originY + m.height * m.resolution];
+  }
+
+  // World rectangle of the known cells' tiles (for "fit map"), or the whole map when nothing is known.
+  knownBounds() {
+    const m = this.meta;
+    if (!m) return null;
+    let tx0 = Infinity;
+    let ty0 = Infinity;
+    let tx1 = -Infinity;
+    let ty1 = -Infinity;
+    for (const t of this.tiles.values()) {
+      if (t.known === 0) continue;
+      tx0 = Math.min(tx0, t.tx);
+      ty0 = Math.min(ty0, t.ty);
+      tx1 = Math.max(tx1, t.tx + 1);
+      ty1 = Math.max(ty1, t.ty + 1);
+    }
+    if (tx0 === Infinity) return this.bounds();
+    const span = m.tileSize * m.resolution;
+    return [m.originX + tx0 * span, m.originY + ty0 * span, m.originX + tx1 * span, m.originY + ty1 * span];
+  }
+
+  // Draw every tile; ctx must carry the world transform (view.matrix). The map is clipped to W x H cells.
+  draw(ctx, pixelsPerMetre) {
+    const m = this.meta;
+    if (!m) return;
+    const span = m.tileSize * m.resolution;
+    const seam = 0.6 / pixelsPerMetre; // overlap tiles by ~half a pixel: no hairline gaps between them
+    ctx.save();
+    ctx.beginPath();
+    ctx.rect(m.originX, m.originY, m.width * m.resolution, m.height * m.resolution);
+    ctx.clip();
+    ctx.imageSmoothingEnabled = false;
+    for (const t of this.tiles.values()) {
+      const x = m.originX + t.tx * span;
+      const y = m.originY + t.ty * span;
+      ctx.drawImage(t.canvas, x, y, span + seam, span + seam);
+    }
+    ctx.restore();
+  }
+}

@@ -1,0 +1,94 @@
+// The dashboard's picture of the robot: the newest frame of each kind from the stream plus what the
+// REST API returned. Everything that draws or shows reads from here; `changed()` asks for a redraw.
+
+import { MapTiles } from "./maptiles.js";
+
+export class State {
+  constructor() {
+    this.map = new MapTiles();
+    this.pose = null; // {x, y, yaw, localized, t}
+    this.particles = []; // [[x, y, yaw], ...]
+    this.scan = null; // {pose: [x, y, yaw], points: [[x, y], ...]}
+    this.path = { goal: null, path: [], state: "idle", reason: null };
+    this.landmarks = { landmarks: [], covariances: [] };
+    this.status = null; // GET api/status
+    this.places = []; // [{name, x, y, yaw}]
+    this.maps = []; // [{name, created, width, height, resolution}]
+    this.goalHeading = null; // yaw the user dragged for the current goal (drawn only)
+    this.online = false;
+    this.lastError = null;
+    this.rates = new Map(); // message type -> {count, since, hz}
+    this.listeners = new Set();
+    this.dirty = true;
+  }
+
+  subscribe(listener) {
+    this.listeners.add(listener);
+    return () => this.listeners.delete(listener);
+  }
+
+  changed(what) {
+    this.dirty = true;
+    for (const listener of this.listeners) listener(what);
+  }
+
+  // Count messages per type: the status bar shows the rate at which poses arrive.
+  tick(type, now = performance.now()) {
+    let r = this.rates.get(type);
+    if (!r) {
+      r = { count: 0, since: now, hz: 0 };
+      this.rates.set(type, r);
+    }
+    r.count++;
+    if (now - r.since >= 1000) {
+      r.hz = (r.count * 1000) / (now - r.since);
+      r.count = 0;
+      r.since = now;
+    }
+  }
+
+  rate(type) {
+    return this.rates.get(type)?.hz ?? 0;
+  }
+
+  setError(message) {
+    this.lastError = message ? { message, at: new Date() } : null;
+    this.changed("error");
+  }
+
+  // Apply one JSON message of the stream (PROTOCOL.md "JSON messages").
+  handle(message) {
+    this.tick(message.type);
+    switch (message.type) {
+      case "pose":
+        this.pose = { x: message.x, y: message.y, yaw: message.yaw, localized: message.localized, t: message.t };
+        break;
+      case "particles":
+        this.particles = message.particles ?? [];
+        break;
+      case "scan":
+        this.scan = { pose: message.pose, points: message.points ?? [] };
+        break;
+      case "path": {
+        const sameGoal =
+          this.path.goal && message.goal && this.path.goal.x === message.goal.x && this.path.goal.y === message.goal.y;
+        if (!sameGoal) this.goalHeading = null;
+        this.path = { goal: message.goal, path: message.path ?? [], state: message.state, reason: message.reason };
+        break;
+      }
+      case "landmarks":
+        this.landmarks = { landmarks: message.landmarks ?? [], covariances: message.covariances ?? [] };
+        break;
+      case "status":
+        this.status = message;
+        if (message.mode !== "ekf") this.landmarks = { landmarks: [], covariances: [] };
+        break;
+      case "error":
+        this.setError(message.detail);
+        return;
+      default:
+        return; // hello, pong and future types need no drawing
+    }
+    this.changed(message.type);
+  }
+}
