@@ -83,7 +83,7 @@ export class MapTiles {
     const size = this.meta.tileSize;
     let entry = this.tiles.get(index);
     if (!entry) {
-      entry = { tx, ty, canvas: makeCanvas(size), known: 0 };
+      entry = { tx, ty, canvas: makeCanvas(size), cells: null, known: 0 };
       this.tiles.set(index, entry);
     }
     const image = new ImageData(size, size);
@@ -97,6 +97,21 @@ export class MapTiles {
     // Row 0 of the tile is its smallest y; the world transform (y up) puts image row 0 at the bottom.
     entry.canvas.getContext("2d").putImageData(image, 0, 0);
     entry.known = known;
+    entry.cells = Uint8Array.from(cells); // the frame's buffer is not kept
+  }
+
+  // The cell value (0..100, 255 unknown) at world point (x, y); 255 outside the map.
+  cellAt(x, y) {
+    const m = this.meta;
+    if (!m) return UNKNOWN;
+    const ix = Math.floor((x - m.originX) / m.resolution);
+    const iy = Math.floor((y - m.originY) / m.resolution);
+    if (ix < 0 || iy < 0 || ix >= m.width || iy >= m.height) return UNKNOWN;
+    const tx = Math.floor(ix / m.tileSize);
+    const ty = Math.floor(iy / m.tileSize);
+    const tile = this.tiles.get(ty * m.tilesX + tx);
+    if (!tile) return UNKNOWN;
+    return tile.cells[(iy - ty * m.tileSize) * m.tileSize + (ix - tx * m.tileSize)];
   }
 
   // World rectangle [x0, y0, x1, y1] covered by the map, or null before the first full frame.

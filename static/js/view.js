@@ -35,7 +35,7 @@ export class View {
 
   // The yaw of the world direction from screen point a to screen point b.
   static screenDirectionToYaw(ax, ay, bx, by) {
-    return Math.atan2(-(by - ay), bx - ax);
+    return Math.atan2(ay - by, bx - ax);
   }
 
   // The canvas transform that draws world coordinates directly: ctx.setTransform(...view.matrix(dpr)).

@@ -1,0 +1,282 @@
+"""The dashboard's JavaScript modules, checked inside the real browser (page.evaluate).
+
+Oracles are independent of the JS: map frames are built here with ``struct`` + ``zlib`` straight
+from PROTOCOL.md, ellipses are checked against numpy's eigen-decomposition, transforms against the
+REP-103 convention (x right, y up on screen, yaw counter-clockwise).
+"""
+
+from __future__ import annotations
+
+import base64
+import math
+import re
+import struct
+import zlib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+STATIC = Path(__file__).resolve().parents[2] / "static"
+
+HEADER = struct.Struct("<BBHIdddIII")
+
+
+def frame_bytes(cells: np.ndarray, tile: int, res: float, origin, seq: int, full: bool, compress: bool,
+                only: list[int] | None = None) -> bytes:
+    """A binary map frame per PROTOCOL.md, written independently of the server's encoder."""
+    h, w = cells.shape
+    tiles_x, tiles_y = -(-w // tile), -(-h // tile)
+    indices = range(tiles_x * tiles_y) if only is None else only
+    payload = b""
+    for index in indices:
+        tx, ty = index % tiles_x, index // tiles_x
+        block = np.full((tile, tile), 255, np.uint8)
+        part = cells[ty * tile:(ty + 1) * tile, tx * tile:(tx + 1) * tile]
+        block[: part.shape[0], : part.shape[1]] = part
+        payload += struct.pack("<I", index) + block.tobytes()
+    flags = (1 if full else 0) | (2 if compress else 0)
+    if compress:
+        payload = zlib.compress(payload)
+    return HEADER.pack(1, flags, tile, seq, res, origin[0], origin[1], w, h, len(indices)) + payload
+
+
+@pytest.fixture
+def modules(page, static_url):
+    """A page on the static server from which the dashboard's modules can be imported."""
+    page.goto(static_url + "js/view.js")
+    return page
+
+
+def run(page, body: str, arg=None):
+    """Evaluate an async function body in the page with ``arg``; its modules are importable by name."""
+    return page.evaluate(f"async (arg) => {{ {body} }}", arg)
+
+
+def test_world_screen_transforms_follow_rep103(modules):
+    out = run(modules, """
+        const { View } = await import('./view.js');
+        const v = new View(800, 600);
+        v.centerOn(2, 3); v.scale = 50;
+        const centre = v.worldToScreen(2, 3);
+        const up = v.worldToScreen(2, 4);       // +y is up on screen
+        const right = v.worldToScreen(3, 3);    // +x is right
+        const back = v.screenToWorld(...v.worldToScreen(-1.25, 7.5));
+        const [a, b, c, d, e, f] = v.matrix(2);  // the canvas matrix for devicePixelRatio 2
+        const m = [a * -1.25 + c * 7.5 + e, b * -1.25 + d * 7.5 + f];
+        const s = v.worldToScreen(-1.25, 7.5);
+        // zooming keeps the world point under the cursor fixed
+        const before = v.screenToWorld(100, 500);
+        v.zoomAt(100, 500, 3.0);
+        const after = v.screenToWorld(100, 500);
+        // a 90-degree yaw points up the screen; a drag up the screen is yaw +pi/2
+        const ang = View.yawToScreenAngle(Math.PI / 2);
+        return { centre, up, right, back, m, s: [s[0] * 2, s[1] * 2], before, after, scale: v.scale,
+                 dirUp: [Math.cos(ang), Math.sin(ang)],
+                 dragUp: View.screenDirectionToYaw(10, 10, 10, 0),
+                 dragLeft: View.screenDirectionToYaw(10, 10, 0, 10) };
+    """)
+    assert out["centre"] == [400, 300]
+    assert out["up"] == [400, 250]
+    assert out["right"] == [450, 300]
+    assert out["back"] == pytest.approx([-1.25, 7.5])
+    assert out["m"] == pytest.approx(out["s"])
+    assert out["after"] == pytest.approx(out["before"])
+    assert out["scale"] == pytest.approx(150)
+    assert out["dirUp"] == pytest.approx([0, -1], abs=1e-12)
+    assert out["dragUp"] == pytest.approx(math.pi / 2)
+    assert out["dragLeft"] == pytest.approx(math.pi)
+
+
+def test_zoom_is_clamped_and_fit_shows_the_rectangle(modules):
+    out = run(modules, """
+        const { View, MIN_SCALE, MAX_SCALE } = await import('./view.js');
+        const v = new View(400, 300);
+        v.zoomAt(0, 0, 1e9); const hi = v.scale;
+        v.zoomAt(0, 0, 1e-9); const lo = v.scale;
+        v.fit(-5, -2, 15, 8, 20);
+        return { hi, lo, MIN_SCALE, MAX_SCALE, vis: v.visibleWorld() };
+    """)
+    assert out["hi"] == out["MAX_SCALE"] and out["lo"] == out["MIN_SCALE"]
+    x0, y0, x1, y1 = out["vis"]
+    assert x0 <= -5 and x1 >= 15 and y0 <= -2 and y1 >= 8
+    assert (x1 - x0) == pytest.approx(20 * 400 / 360)  # the width limits: (400 - 2*20) px for 20 m
+
+
+@pytest.mark.parametrize("compress", [False, True])
+def test_map_frame_decoder_reads_what_protocol_md_describes(modules, compress):
+    rng = np.random.default_rng(7)
+    cells = rng.choice(np.array([0, 37, 100, 255], np.uint8), size=(70, 150))
+    frame = frame_bytes(cells, 64, 0.05, (-3.5, 1.25), 42, True, compress)
+    out = run(modules, """
+        const { decodeMapFrame } = await import('./mapframe.js');
+        const bytes = Uint8Array.from(atob(arg), (c) => c.charCodeAt(0));
+        const f = await decodeMapFrame(bytes.buffer);
+        return { ...f, tiles: f.tiles.map((t) => ({ index: t.index, tx: t.tx, ty: t.ty, cells: Array.from(t.cells) })) };
+    """, base64.b64encode(frame).decode())
+    assert out["full"] is True and out["zlib"] is compress
+    assert (out["tileSize"], out["seq"], out["width"], out["height"]) == (64, 42, 150, 70)
+    assert (out["resolution"], out["originX"], out["originY"]) == (0.05, -3.5, 1.25)
+    assert (out["tilesX"], out["tilesY"]) == (3, 2)
+    rebuilt = np.full((128, 192), 255, np.uint8)
+    for t in out["tiles"]:
+        assert t["index"] == t["ty"] * 3 + t["tx"]
+        rebuilt[t["ty"] * 64:(t["ty"] + 1) * 64, t["tx"] * 64:(t["tx"] + 1) * 64] = np.reshape(t["cells"], (64, 64))
+    np.testing.assert_array_equal(rebuilt[:70, :150], cells)
+    assert (rebuilt[70:, :] == 255).all() and (rebuilt[:, 150:] == 255).all()
+
+
+def test_map_frame_decoder_rejects_malformed_frames(modules):
+    good = frame_bytes(np.zeros((10, 10), np.uint8), 16, 0.1, (0, 0), 1, True, False)
+    cases = {
+        "short": good[:20],
+        "truncated": good[:-5],
+        "type": bytes([2]) + good[1:],
+        "index": good[:44] + struct.pack("<I", 99) + good[48:],
+    }
+    out = run(modules, """
+        const { decodeMapFrame } = await import('./mapframe.js');
+        const result = {};
+        for (const [name, b64] of Object.entries(arg)) {
+            const bytes = Uint8Array.from(atob(b64), (c) => c.charCodeAt(0));
+            try { await decodeMapFrame(bytes.buffer); result[name] = 'accepted'; }
+            catch (e) { result[name] = e.constructor.name + ': ' + e.message; }
+        }
+        return result;
+    """, {k: base64.b64encode(v).decode() for k, v in cases.items()})
+    assert out["short"].startswith("MapFrameError") and "header" in out["short"]
+    assert out["truncated"].startswith("MapFrameError") and "payload" in out["truncated"]
+    assert "unknown type 2" in out["type"]
+    assert "tile index 99" in out["index"]
+
+
+def test_map_tiles_draw_cells_where_they_are_in_the_world(modules):
+    """A full frame then a delta, drawn through the view: the pixels under each world point show its
+    cell (row 0 = smallest y at the bottom of the screen), and a delta repaints only its tile."""
+    cells = np.full((100, 100), 255, np.uint8)  # 2 x 2 tiles of 64, 5 m x 5 m at 5 cm
+    cells[90:95, 5:10] = 100  # occupied block near the TOP-left (large y, small x)
+    cells[5:10, 90:95] = 0  # free block near the BOTTOM-right
+    full = frame_bytes(cells, 64, 0.05, (-1.0, -2.0), 1, True, True)
+    cells2 = cells.copy()
+    cells2[90:95, 90:95] = 100  # top-right, in tile 3
+    delta = frame_bytes(cells2, 64, 0.05, (-1.0, -2.0), 2, False, False, only=[3])
+    out = run(modules, """
+        const { decodeMapFrame } = await import('./mapframe.js');
+        const { MapTiles, PALETTE } = await import('./maptiles.js');
+        const { View } = await import('./view.js');
+        const b = (s) => Uint8Array.from(atob(s), (c) => c.charCodeAt(0)).buffer;
+        const canvas = document.createElement('canvas'); canvas.width = 500; canvas.height = 500;
+        const ctx = canvas.getContext('2d');
+        const view = new View(500, 500); view.fit(-1, -2, 4, 3, 0);   // 100 px per metre
+        const tiles = new MapTiles();
+        const px = (x, y) => { const [sx, sy] = view.worldToScreen(x, y);
+                               return Array.from(ctx.getImageData(Math.floor(sx), Math.floor(sy), 1, 1).data); };
+        const draw = () => { ctx.setTransform(...view.matrix(1)); ctx.clearRect(-100, -100, 200, 200); tiles.draw(ctx, view.scale); };
+        tiles.apply(await decodeMapFrame(b(arg.full))); draw();
+        // cell (ix, iy) centre: x = -1 + (ix + .5) * .05, y = -2 + (iy + .5) * .05
+        const first = { occTopLeft: px(-1 + 7.5 * .05, -2 + 92.5 * .05), freeBottomRight: px(-1 + 92.5 * .05, -2 + 7.5 * .05),
+                        unknown: px(1.5, 0.5), topRight: px(-1 + 92.5 * .05, -2 + 92.5 * .05),
+                        cellAt: [tiles.cellAt(-1 + 7.5 * .05, -2 + 92.5 * .05), tiles.cellAt(-1 + 92.5 * .05, -2 + 7.5 * .05),
+                                 tiles.cellAt(50, 50)], known: tiles.knownBounds() };
+        const applied = tiles.apply(await decodeMapFrame(b(arg.delta))); draw();
+        const unpack = (p) => [p & 255, (p >> 8) & 255, (p >> 16) & 255, p >>> 24];
+        return { first, applied, topRight: px(-1 + 92.5 * .05, -2 + 92.5 * .05),
+                 stillOcc: px(-1 + 7.5 * .05, -2 + 92.5 * .05), version: tiles.version,
+                 occ: unpack(PALETTE[100]), free: unpack(PALETTE[0]), unk: unpack(PALETTE[255]) };
+    """, {"full": base64.b64encode(full).decode(), "delta": base64.b64encode(delta).decode()})
+    first = out["first"]
+    assert first["occTopLeft"] == out["occ"]
+    assert first["freeBottomRight"] == out["free"]
+    assert first["unknown"] == out["unk"] and first["topRight"] == out["unk"]
+    assert first["cellAt"] == [100, 0, 255]
+    assert out["applied"] is True and out["version"] == 2
+    assert out["topRight"] == out["occ"] and out["stillOcc"] == out["occ"]
+    # the known cells sit in tiles 1 (bottom-right) and 2 (top-left): their box spans all four tiles
+    assert first["known"] == pytest.approx([-1.0, -2.0, -1.0 + 128 * 0.05, -2.0 + 128 * 0.05])
+
+
+def test_delta_that_does_not_fit_the_map_is_dropped(modules):
+    a = frame_bytes(np.zeros((20, 20), np.uint8), 16, 0.05, (0, 0), 1, True, False)
+    b = frame_bytes(np.zeros((40, 20), np.uint8), 16, 0.05, (0, 0), 2, False, False, only=[0])
+    out = run(modules, """
+        const { decodeMapFrame } = await import('./mapframe.js');
+        const { MapTiles } = await import('./maptiles.js');
+        const buf = (s) => Uint8Array.from(atob(s), (c) => c.charCodeAt(0)).buffer;
+        const tiles = new MapTiles();
+        const early = tiles.apply(await decodeMapFrame(buf(arg[1])));   // delta before any full frame
+        const full = tiles.apply(await decodeMapFrame(buf(arg[0])));
+        const wrong = tiles.apply(await decodeMapFrame(buf(arg[1])));   // different height
+        return [early, full, wrong];
+    """, [base64.b64encode(a).decode(), base64.b64encode(b).decode()])
+    assert out == [False, True, False]
+
+
+def test_uncertainty_ellipse_matches_numpy_eigen(modules):
+    rng = np.random.default_rng(3)
+    covs = []
+    for _ in range(20):
+        a = rng.normal(size=(2, 2))
+        covs.append((a @ a.T).tolist())
+    covs.append([[0.04, 0.0], [0.0, 0.01]])
+    out = run(modules, """
+        const { covarianceEllipse, CHI2_2DOF_95 } = await import('./geometry.js');
+        return { chi2: CHI2_2DOF_95, e: arg.map((c) => covarianceEllipse(c)) };
+    """, covs)
+    for cov, e in zip(covs, out["e"], strict=True):
+        values, vectors = np.linalg.eigh(np.array(cov))
+        assert e["a"] == pytest.approx(math.sqrt(out["chi2"] * values[1]), rel=1e-9)
+        assert e["b"] == pytest.approx(math.sqrt(out["chi2"] * max(values[0], 0)), rel=1e-6, abs=1e-9)
+        major = vectors[:, 1]
+        assert abs(math.cos(e["angle"]) * major[0] + math.sin(e["angle"]) * major[1]) == pytest.approx(1, abs=1e-9)
+    assert out["chi2"] == pytest.approx(5.991, abs=1e-3)  # chi-square 95 %, 2 dof
+
+
+def test_teleop_command_and_relative_urls(modules):
+    out = run(modules, """
+        const { command, LINEAR_SPEED, ANGULAR_SPEED } = await import('./teleop.js');
+        const { httpUrl, wsUrl } = await import('./urls.js');
+        let leading = null;
+        try { httpUrl('/api/status', 'http://h/'); } catch (e) { leading = e.message; }
+        return {
+            fl: command(new Set(['forward', 'left'])), br: command(new Set(['back', 'right'])),
+            none: command(new Set()), both: command(new Set(['forward', 'back'])),
+            v: LINEAR_SPEED, w: ANGULAR_SPEED,
+            api: httpUrl('api/status', 'https://example.org/robot/'),
+            ws: wsUrl('ws', { token: 'a b' }, 'https://example.org/robot/index.html'),
+            wsPlain: wsUrl('ws', {}, 'http://10.0.0.2:8000/'), leading,
+        };
+    """)
+    assert out["fl"] == [out["v"], out["w"]] and out["br"] == [-out["v"], -out["w"]]
+    assert out["none"] == [0, 0] and out["both"] == [0, 0]
+    assert 0 < out["v"] <= 0.5 and 0 < out["w"] <= 2.0  # within the server's teleop limits
+    assert out["api"] == "https://example.org/robot/api/status"
+    assert out["ws"] == "wss://example.org/robot/ws?token=a+b"
+    assert out["wsPlain"] == "ws://10.0.0.2:8000/ws"
+    assert "relative" in out["leading"]
+
+
+ABSOLUTE = re.compile(
+    r"""(?:href|src|action)\s*=\s*["']/|(?:fetch|import|WebSocket|httpUrl|wsUrl|url)\(\s*["'`]/"""
+    r"""|["'`]/(?:api|ws|static|js|css)\b|\bhttps?://(?!example\.org)""",
+)
+
+
+def test_no_absolute_or_external_urls_in_static():
+    """Relative URLs only (reverse proxy under a sub-path) and nothing fetched from the internet."""
+    offenders = []
+    for path in sorted(STATIC.rglob("*")):
+        if path.suffix not in {".html", ".js", ".css"}:
+            continue
+        for number, line in enumerate(path.read_text().splitlines(), 1):
+            if ABSOLUTE.search(line) and "goo.gl" not in line:
+                offenders.append(f"{path.relative_to(STATIC)}:{number}: {line.strip()}")
+    assert not offenders, "absolute or external URLs:\n" + "\n".join(offenders)
+    assert (STATIC / "index.html").read_text().count('type="module"') == 1
+
+
+def test_index_loads_without_script_errors(page, static_url):
+    """With no homebot behind the static files the page still loads and says it is offline."""
+    page.goto(static_url)
+    page.wait_for_selector("#offline-banner", state="visible", timeout=10_000)
+    assert page.locator("#st-conn").inner_text().strip() == "offline"
+    assert page.js_errors == []
