@@ -165,7 +165,7 @@ export class Renderer {
     }
     if (goal) {
       const [sx, sy] = view.worldToScreen(goal.x, goal.y);
-      this.drawFlag(sx, sy, COLORS.goal, this.state.goalHeading);
+      this.drawFlag(sx, sy, COLORS.goal, this.state.goalYaw());
     }
   }
 

@@ -3,6 +3,8 @@
 
 import { MapTiles } from "./maptiles.js";
 
+const GOAL_MATCH_M = 0.01; // the server echoes the goal it was sent
+
 export class State {
   constructor() {
     this.map = new MapTiles();
@@ -14,7 +16,7 @@ export class State {
     this.status = null; // GET api/status
     this.places = []; // [{name, x, y, yaw}]
     this.maps = []; // [{name, created, width, height, resolution}]
-    this.goalHeading = null; // yaw the user dragged for the current goal (drawn only)
+    this.goalHeading = null; // {x, y, yaw}: the heading the user dragged for the goal at (x, y)
     this.online = false;
     this.lastError = null;
     this.rates = new Map(); // message type -> {count, since, hz}
@@ -51,6 +53,14 @@ export class State {
     return this.rates.get(type)?.hz ?? 0;
   }
 
+  // The dragged heading of the current goal, if the user gave one for it (null otherwise).
+  goalYaw() {
+    const g = this.path.goal;
+    const h = this.goalHeading;
+    const same = g && h && Math.abs(g.x - h.x) < GOAL_MATCH_M && Math.abs(g.y - h.y) < GOAL_MATCH_M;
+    return same ? h.yaw : null;
+  }
+
   setError(message) {
     this.lastError = message ? { message, at: new Date() } : null;
     this.changed("error");
@@ -69,13 +79,9 @@ export class State {
       case "scan":
         this.scan = { pose: message.pose, points: message.points ?? [] };
         break;
-      case "path": {
-        const sameGoal =
-          this.path.goal && message.goal && this.path.goal.x === message.goal.x && this.path.goal.y === message.goal.y;
-        if (!sameGoal) this.goalHeading = null;
+      case "path":
         this.path = { goal: message.goal, path: message.path ?? [], state: message.state, reason: message.reason };
         break;
-      }
       case "landmarks":
         this.landmarks = { landmarks: message.landmarks ?? [], covariances: message.covariances ?? [] };
         break;

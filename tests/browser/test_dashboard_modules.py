@@ -41,11 +41,14 @@ def frame_bytes(cells: np.ndarray, tile: int, res: float, origin, seq: int, full
     return HEADER.pack(1, flags, tile, seq, res, origin[0], origin[1], w, h, len(indices)) + payload
 
 
-@pytest.fixture
-def modules(page, static_url):
+@pytest.fixture(scope="module")
+def modules(browser, static_url):
     """A page on the static server from which the dashboard's modules can be imported."""
+    context = browser.new_context()
+    page = context.new_page()
     page.goto(static_url + "js/view.js")
-    return page
+    yield page
+    context.close()
 
 
 def run(page, body: str, arg=None):
@@ -112,7 +115,8 @@ def test_map_frame_decoder_reads_what_protocol_md_describes(modules, compress):
         const { decodeMapFrame } = await import('./mapframe.js');
         const bytes = Uint8Array.from(atob(arg), (c) => c.charCodeAt(0));
         const f = await decodeMapFrame(bytes.buffer);
-        return { ...f, tiles: f.tiles.map((t) => ({ index: t.index, tx: t.tx, ty: t.ty, cells: Array.from(t.cells) })) };
+        const tiles = f.tiles.map((t) => ({ ...t, cells: Array.from(t.cells) }));
+        return { ...f, tiles };
     """, base64.b64encode(frame).decode())
     assert out["full"] is True and out["zlib"] is compress
     assert (out["tileSize"], out["seq"], out["width"], out["height"]) == (64, 42, 150, 70)
@@ -121,7 +125,8 @@ def test_map_frame_decoder_reads_what_protocol_md_describes(modules, compress):
     rebuilt = np.full((128, 192), 255, np.uint8)
     for t in out["tiles"]:
         assert t["index"] == t["ty"] * 3 + t["tx"]
-        rebuilt[t["ty"] * 64:(t["ty"] + 1) * 64, t["tx"] * 64:(t["tx"] + 1) * 64] = np.reshape(t["cells"], (64, 64))
+        y0, x0 = t["ty"] * 64, t["tx"] * 64
+        rebuilt[y0:y0 + 64, x0:x0 + 64] = np.reshape(t["cells"], (64, 64))
     np.testing.assert_array_equal(rebuilt[:70, :150], cells)
     assert (rebuilt[70:, :] == 255).all() and (rebuilt[:, 150:] == 255).all()
 
@@ -169,19 +174,27 @@ def test_map_tiles_draw_cells_where_they_are_in_the_world(modules):
         const ctx = canvas.getContext('2d');
         const view = new View(500, 500); view.fit(-1, -2, 4, 3, 0);   // 100 px per metre
         const tiles = new MapTiles();
-        const px = (x, y) => { const [sx, sy] = view.worldToScreen(x, y);
-                               return Array.from(ctx.getImageData(Math.floor(sx), Math.floor(sy), 1, 1).data); };
-        const draw = () => { ctx.setTransform(...view.matrix(1)); ctx.clearRect(-100, -100, 200, 200); tiles.draw(ctx, view.scale); };
-        tiles.apply(await decodeMapFrame(b(arg.full))); draw();
-        // cell (ix, iy) centre: x = -1 + (ix + .5) * .05, y = -2 + (iy + .5) * .05
-        const first = { occTopLeft: px(-1 + 7.5 * .05, -2 + 92.5 * .05), freeBottomRight: px(-1 + 92.5 * .05, -2 + 7.5 * .05),
-                        unknown: px(1.5, 0.5), topRight: px(-1 + 92.5 * .05, -2 + 92.5 * .05),
-                        cellAt: [tiles.cellAt(-1 + 7.5 * .05, -2 + 92.5 * .05), tiles.cellAt(-1 + 92.5 * .05, -2 + 7.5 * .05),
-                                 tiles.cellAt(50, 50)], known: tiles.knownBounds() };
-        const applied = tiles.apply(await decodeMapFrame(b(arg.delta))); draw();
+        const px = ([x, y]) => {
+            const [sx, sy] = view.worldToScreen(x, y);
+            return Array.from(ctx.getImageData(Math.floor(sx), Math.floor(sy), 1, 1).data);
+        };
+        const draw = () => {
+            ctx.setTransform(...view.matrix(1));
+            ctx.clearRect(-100, -100, 200, 200);
+            tiles.draw(ctx, view.scale);
+        };
+        const cell = (ix, iy) => [-1 + (ix + .5) * .05, -2 + (iy + .5) * .05];  // cell centre in metres
+        const [topLeft, bottomRight, topRight] = [cell(7, 92), cell(92, 7), cell(92, 92)];
+        tiles.apply(await decodeMapFrame(b(arg.full)));
+        draw();
+        const first = { occTopLeft: px(topLeft), freeBottomRight: px(bottomRight),
+                        unknown: px([1.5, 0.5]), topRight: px(topRight),
+                        cellAt: [topLeft, bottomRight, [50, 50]].map((p) => tiles.cellAt(...p)),
+                        known: tiles.knownBounds() };
+        const applied = tiles.apply(await decodeMapFrame(b(arg.delta)));
+        draw();
         const unpack = (p) => [p & 255, (p >> 8) & 255, (p >> 16) & 255, p >>> 24];
-        return { first, applied, topRight: px(-1 + 92.5 * .05, -2 + 92.5 * .05),
-                 stillOcc: px(-1 + 7.5 * .05, -2 + 92.5 * .05), version: tiles.version,
+        return { first, applied, topRight: px(topRight), stillOcc: px(topLeft), version: tiles.version,
                  occ: unpack(PALETTE[100]), free: unpack(PALETTE[0]), unk: unpack(PALETTE[255]) };
     """, {"full": base64.b64encode(full).decode(), "delta": base64.b64encode(delta).decode()})
     first = out["first"]
@@ -227,7 +240,8 @@ def test_uncertainty_ellipse_matches_numpy_eigen(modules):
         assert e["a"] == pytest.approx(math.sqrt(out["chi2"] * values[1]), rel=1e-9)
         assert e["b"] == pytest.approx(math.sqrt(out["chi2"] * max(values[0], 0)), rel=1e-6, abs=1e-9)
         major = vectors[:, 1]
-        assert abs(math.cos(e["angle"]) * major[0] + math.sin(e["angle"]) * major[1]) == pytest.approx(1, abs=1e-9)
+        along = math.cos(e["angle"]) * major[0] + math.sin(e["angle"]) * major[1]
+        assert abs(along) == pytest.approx(1, abs=1e-9)
     assert out["chi2"] == pytest.approx(5.991, abs=1e-3)  # chi-square 95 %, 2 dof
 
 
