@@ -41,3 +41,76 @@ def ticks_to_increment(d_left: int, d_right: int, geometry: DiffDriveGeometry) -
 def integrate_ticks(pose, d_left: int, d_right: int, geometry: DiffDriveGeometry) -> np.ndarray:
     """The odometry pose after one pair of tick increments."""
     return compose(pose, ticks_to_increment(d_left, d_right, geometry))
+
+
+TICK_MODULUS = 1 << 32  # encoder counters are signed 32-bit and wrap
+CLOCK_MODULUS = 1 << 32  # MCU timestamps are unsigned 32-bit microseconds and wrap
+#: Ticks a wheel may exceed its speed limit by (quantisation, sampling jitter).
+TICK_SLACK = 3
+#: A gap in MCU time longer than this (s) breaks the odometry chain: re-baseline, don't integrate.
+MAX_TIME_GAP = 5.0
+
+
+def wrapped_delta(new: int, old: int, modulus: int = TICK_MODULUS) -> int:
+    """``new - old`` for counters that wrap at ``modulus``, as the signed shortest difference."""
+    half = modulus // 2
+    return (int(new) - int(old) + half) % modulus - half
+
+
+class OdometryIntegrator:
+    """Successive cumulative tick readings with MCU timestamps to an SE(2) odometry pose.
+
+    Handles 32-bit wrap-around of both tick counters and the microsecond clock. The
+    first reading only sets the baseline. A reading is *implausible*, counted in
+    ``jumps_rejected`` and not integrated, when a wheel moved more ticks than
+    ``max_wheel_speed`` allows for the elapsed MCU time (plus :data:`TICK_SLACK`); the
+    MCU clock stepping back or jumping more than :data:`MAX_TIME_GAP` is counted in
+    ``time_gaps``. Either way the reading becomes the new baseline, so odometry never
+    jumps and resumes at once after an MCU reset.
+    """
+
+    def __init__(self, geometry: DiffDriveGeometry, max_wheel_speed: float, pose=(0.0, 0.0, 0.0)):
+        if not max_wheel_speed > 0:
+            raise ValueError(f"max_wheel_speed must be positive (m/s), got {max_wheel_speed!r}")
+        pose = np.asarray(pose, dtype=float)
+        if pose.shape != (3,) or not np.all(np.isfinite(pose)):
+            raise ValueError(f"initial pose must be three finite numbers (x, y, theta), got {pose!r}")
+        self.geometry = geometry
+        self.max_wheel_speed = float(max_wheel_speed)
+        self.pose = pose.copy()
+        self.time = 0.0  # MCU seconds since the first reading, unwrapped
+        self.accepted = 0
+        self.jumps_rejected = 0
+        self.time_gaps = 0
+        self._last: tuple[int, int, int] | None = None
+
+    def max_ticks(self, dt: float) -> int:
+        """The most ticks a wheel can turn in ``dt`` seconds."""
+        return int(self.max_wheel_speed * dt / self.geometry.metres_per_tick) + TICK_SLACK
+
+    def reset_baseline(self) -> None:
+        """Forget the previous reading (keep the pose): the next reading is a new baseline."""
+        self._last = None
+
+    def update(self, t_us: int, left: int, right: int) -> bool:
+        """Take one reading; True when it moved the pose (or set the first baseline)."""
+        last, self._last = self._last, (t_us, left, right)
+        if last is None:
+            self.accepted += 1
+            return True
+        dt_us = (int(t_us) - last[0]) % CLOCK_MODULUS
+        dt = dt_us * 1e-6
+        if dt > MAX_TIME_GAP:
+            self.time_gaps += 1
+            return False
+        d_left = wrapped_delta(left, last[1])
+        d_right = wrapped_delta(right, last[2])
+        limit = self.max_ticks(dt)
+        if abs(d_left) > limit or abs(d_right) > limit:
+            self.jumps_rejected += 1
+            self.time += dt
+            return False
+        self.pose = integrate_ticks(self.pose, d_left, d_right, self.geometry)
+        self.time += dt
+        self.accepted += 1
+        return True

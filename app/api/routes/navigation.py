@@ -1,0 +1,61 @@
+"""Goals, the current path, the initial pose and teleoperation."""
+
+from fastapi import APIRouter, HTTPException, status
+
+from app.api.deps import RuntimeDep, StoreDep
+from app.api.models import GoalBody, GoalResponse, Ok, PathResponse, PoseBody, TeleopBody
+from app.db.store import NotFound
+from app.navigation.navigator import Goal
+from app.navigation.planning import PlanningError
+from app.runtime import Runtime
+
+router = APIRouter(tags=["navigation"])
+
+
+async def start_goal(runtime: Runtime, goal: Goal) -> dict:
+    """Plan and start; 422 with the planner's reason when the goal cannot be reached."""
+    try:
+        return await runtime.navigator.set_goal(goal)
+    except PlanningError as exc:
+        raise HTTPException(status.HTTP_422_UNPROCESSABLE_CONTENT,
+                            {"reason": exc.reason, "message": str(exc)}) from None
+
+
+@router.post("/goal", response_model=GoalResponse, status_code=status.HTTP_202_ACCEPTED)
+async def create_goal(body: GoalBody, runtime: RuntimeDep, store: StoreDep) -> dict:
+    """Drive to ``{x, y}`` (metres, map frame) or to a named ``{place}``."""
+    if body.place is not None:
+        try:
+            place = store.get_place(body.place)
+        except NotFound as exc:
+            raise HTTPException(status.HTTP_404_NOT_FOUND, str(exc.args[0])) from None
+        return await start_goal(runtime, Goal(place.x, place.y, place.name))
+    return await start_goal(runtime, Goal(body.x, body.y))
+
+
+@router.delete("/goal", response_model=Ok)
+def delete_goal(runtime: RuntimeDep) -> Ok:
+    """Cancel the goal and stop the robot."""
+    runtime.navigator.cancel()
+    return Ok()
+
+
+@router.get("/path", response_model=PathResponse)
+def read_path(runtime: RuntimeDep) -> dict:
+    """The goal, the planned path and the navigation state."""
+    return runtime.navigator.snapshot()
+
+
+@router.post("/pose", response_model=Ok)
+def create_pose(body: PoseBody, runtime: RuntimeDep) -> Ok:
+    """Set the initial pose (re-initialises the estimator around it)."""
+    if not runtime.supervisor.send("pose", body.x, body.y, body.yaw):
+        raise HTTPException(status.HTTP_503_SERVICE_UNAVAILABLE, "the worker is not accepting commands")
+    return Ok()
+
+
+@router.post("/teleop", response_model=Ok)
+def create_teleop(body: TeleopBody, runtime: RuntimeDep) -> Ok:
+    """Drive by hand: ``v`` m/s, ``w`` rad/s for half a second (send repeatedly); cancels a goal."""
+    runtime.navigator.teleop(body.v, body.w)
+    return Ok()

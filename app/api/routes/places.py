@@ -1,0 +1,82 @@
+"""Named places ("kitchen", "sofa"): create, list, rename, delete, go to."""
+
+from fastapi import APIRouter, HTTPException, Path, Response, status
+
+from app.api.deps import RuntimeDep, StoreDep
+from app.api.models import GoalResponse, Place, PlaceBody, PlacePatch
+from app.api.routes.navigation import start_goal
+from app.db import store as db
+from app.db.names import check_name
+from app.navigation.navigator import Goal
+
+router = APIRouter(prefix="/places", tags=["places"])
+
+PlaceName = Path(max_length=64)
+
+
+def _checked(name: str) -> str:
+    try:
+        return check_name(name, "place name")
+    except ValueError as exc:
+        raise HTTPException(status.HTTP_422_UNPROCESSABLE_CONTENT, str(exc)) from None
+
+
+def _get(store: db.Store, name: str) -> db.Place:
+    try:
+        return store.get_place(_checked(name))
+    except db.NotFound as exc:
+        raise HTTPException(status.HTTP_404_NOT_FOUND, str(exc.args[0])) from None
+
+
+@router.get("", response_model=list[Place])
+def read_places(store: StoreDep) -> list[dict]:
+    """All places, by name."""
+    return [p.dict() for p in store.list_places()]
+
+
+@router.post("", response_model=Place, status_code=status.HTTP_201_CREATED)
+def create_place(body: PlaceBody, store: StoreDep) -> dict:
+    """Add a place (409 when the name is taken)."""
+    try:
+        return store.add_place(db.Place(body.name, body.x, body.y, body.yaw)).dict()
+    except db.AlreadyExists as exc:
+        raise HTTPException(status.HTTP_409_CONFLICT, str(exc)) from None
+
+
+@router.get("/{name}", response_model=Place)
+def read_place(store: StoreDep, name: str = PlaceName) -> dict:
+    """One place."""
+    return _get(store, name).dict()
+
+
+@router.patch("/{name}", response_model=Place)
+def update_place(body: PlacePatch, store: StoreDep, name: str = PlaceName) -> dict:
+    """Rename or move a place."""
+    old = _get(store, name)
+    new = db.Place(body.name if body.name is not None else old.name,
+                   body.x if body.x is not None else old.x,
+                   body.y if body.y is not None else old.y,
+                   body.yaw if body.yaw is not None else old.yaw)
+    try:
+        return store.update_place(old.name, new).dict()
+    except db.AlreadyExists as exc:
+        raise HTTPException(status.HTTP_409_CONFLICT, str(exc)) from None
+    except db.NotFound as exc:
+        raise HTTPException(status.HTTP_404_NOT_FOUND, str(exc.args[0])) from None
+
+
+@router.delete("/{name}", status_code=status.HTTP_204_NO_CONTENT, response_class=Response)
+def delete_place(store: StoreDep, name: str = PlaceName) -> Response:
+    """Forget a place."""
+    try:
+        store.delete_place(_checked(name))
+    except db.NotFound as exc:
+        raise HTTPException(status.HTTP_404_NOT_FOUND, str(exc.args[0])) from None
+    return Response(status_code=status.HTTP_204_NO_CONTENT)
+
+
+@router.post("/{name}/go", response_model=GoalResponse, status_code=status.HTTP_202_ACCEPTED)
+async def create_place_goal(runtime: RuntimeDep, store: StoreDep, name: str = PlaceName) -> dict:
+    """Drive to the place."""
+    place = _get(store, name)
+    return await start_goal(runtime, Goal(place.x, place.y, place.name))

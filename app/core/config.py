@@ -1,0 +1,94 @@
+"""The server's settings: one ``Settings`` object, read from ``HOMEBOT_*`` environment variables."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Literal
+
+from pydantic import Field, field_validator
+from pydantic_settings import BaseSettings, NoDecode, SettingsConfigDict
+
+Mode = Literal["mapping", "localization", "ekf"]
+
+#: Worlds the simulator ships (``homebot serve --world``).
+WORLDS = ("flat", "house")
+
+
+class Settings(BaseSettings):
+    """Everything ``homebot serve`` can be told; defaults run the simulated robot locally."""
+
+    model_config = SettingsConfigDict(env_prefix="HOMEBOT_", extra="ignore")
+
+    host: str = "127.0.0.1"
+    port: int = Field(8000, ge=0, le=65535)
+    data_dir: Path = Path("./data")
+    world: str = "flat"
+    simulation: bool = True
+    serial_port: str = "/dev/ttyUSB0"
+    serial_baud: int = Field(115200, gt=0)
+    #: Real robot only: ``module:callable`` returning an iterator of :class:`slam_core.scan.Scan`.
+    sensor_source: str | None = None
+    mode: Mode = "mapping"
+    seed: int = 0
+
+    cors_origins: Annotated[list[str], NoDecode] = Field(default_factory=list)
+    max_body_bytes: int = Field(64 * 1024, ge=1024)
+    token: str | None = Field(None, min_length=16)
+
+    stream_hz: float = Field(15.0, ge=10.0, le=60.0)
+    map_hz: float = Field(2.0, ge=1.0, le=10.0)
+    status_hz: float = Field(1.0, gt=0.0, le=10.0)
+    client_send_timeout_s: float = Field(10.0, gt=0.0)
+    max_particles_streamed: int = Field(300, ge=1)
+
+    resolution: float = Field(0.05, gt=0.0, le=1.0)
+    tile_size: int = 64
+    map_capacity_cells: int = Field(2048 * 2048, ge=64 * 64)
+    particles: int = Field(30, ge=1, le=2000)
+    checkpoint_s: float = Field(5.0, gt=0.0)
+    worker_restart_delay_s: float = Field(0.5, ge=0.0)
+
+    control_hz: float = Field(10.0, ge=1.0, le=100.0)
+    replan_s: float = Field(2.0, gt=0.0)
+    goal_tolerance: float = Field(0.25, gt=0.0)
+    max_speed: float = Field(0.5, gt=0.0)
+    max_turn_rate: float = Field(2.0, gt=0.0)
+    teleop_hold_s: float = Field(0.5, gt=0.0)
+
+    @field_validator("cors_origins", mode="before")
+    @classmethod
+    def _split_origins(cls, value):
+        """Accept ``"https://a, https://b"`` as well as a list."""
+        if isinstance(value, str):
+            return [o.strip() for o in value.split(",") if o.strip()]
+        return value
+
+    @field_validator("world")
+    @classmethod
+    def _known_world(cls, value: str) -> str:
+        if value not in WORLDS:
+            raise ValueError(f"unknown world {value!r}; choose one of {', '.join(WORLDS)}")
+        return value
+
+    @field_validator("tile_size")
+    @classmethod
+    def _power_of_two(cls, value: int) -> int:
+        if value < 16 or value > 256 or value & (value - 1):
+            raise ValueError(f"tile_size must be a power of two in 16..256, got {value}")
+        return value
+
+    @property
+    def db_path(self) -> Path:
+        return self.data_dir / "homebot.sqlite3"
+
+    @property
+    def maps_dir(self) -> Path:
+        return self.data_dir / "maps"
+
+    @property
+    def checkpoint_dir(self) -> Path:
+        return self.data_dir / "checkpoint"
+
+    @property
+    def last_map_stem(self) -> Path:
+        return self.data_dir / "last_map"

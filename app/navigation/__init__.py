@@ -1,0 +1,1 @@
+"""Goals to motion: planner (``slam_core.planning``) -> path follower -> velocity commands."""

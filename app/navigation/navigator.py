@@ -1,0 +1,146 @@
+"""The navigator: one goal at a time, planned on the live map, followed, replanned as the map grows.
+
+Runs as an asyncio task in the server; planning runs in a thread (the A* kernel
+releases the GIL), never in the event loop. Velocity commands go to the worker,
+which writes them to the robot's serial link.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from app.core.config import Settings
+from app.navigation.planning import PlanningError, follower_for, plan_path
+from slam_core.occupancy_grid import OccupancyGrid
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class Goal:
+    x: float
+    y: float
+    place: str | None = None
+
+    def dict(self) -> dict:
+        return {"x": self.x, "y": self.y, "place": self.place}
+
+
+class Navigator:
+    """Goal, path and state (``idle``, ``driving``, ``arrived``, ``failed``) of the robot."""
+
+    def __init__(self, settings: Settings, grid: Callable[[], OccupancyGrid | None],
+                 pose: Callable[[], np.ndarray | None], send_velocity: Callable[[float, float], None]):
+        self.settings = settings
+        self._grid = grid
+        self._pose = pose
+        self._send = send_velocity
+        self.goal: Goal | None = None
+        self.path = np.zeros((0, 2))
+        self.state = "idle"
+        self.reason: str | None = None
+        self._follower = None
+        self._teleop: tuple[float, float] | None = None
+        self._teleop_until = 0.0
+        self._last_plan = 0.0
+        self._replanning = False
+        self._replan_task: asyncio.Task | None = None
+        self._generation = 0
+
+    def snapshot(self) -> dict:
+        return {"goal": self.goal.dict() if self.goal else None,
+                "path": np.round(self.path, 3).tolist(), "state": self.state, "reason": self.reason}
+
+    def path_length(self) -> float:
+        if len(self.path) < 2:
+            return 0.0
+        return float(np.linalg.norm(np.diff(self.path, axis=0), axis=1).sum())
+
+    async def _plan(self, goal: Goal) -> np.ndarray:
+        grid, pose = self._grid(), self._pose()
+        if grid is None or pose is None:
+            raise PlanningError("the robot has no map or pose yet")
+        return await asyncio.to_thread(plan_path, grid, np.asarray(pose, float), (goal.x, goal.y))
+
+    async def set_goal(self, goal: Goal) -> dict:
+        """Plan to ``goal`` and start driving; raises :class:`PlanningError` (the reason) when impossible."""
+        path = await self._plan(goal)
+        self._generation += 1
+        self._teleop = None
+        self.goal, self.path, self.state, self.reason = goal, path, "driving", None
+        self._follower = follower_for(path, self.settings)
+        self._last_plan = time.monotonic()
+        return {"goal": goal.dict(), "path": np.round(path, 3).tolist(), "length": self.path_length()}
+
+    def cancel(self, state: str = "idle", reason: str | None = None) -> None:
+        self._generation += 1
+        self.goal, self._follower = None, None
+        self.path = np.zeros((0, 2))
+        self.state, self.reason = state, reason
+        self._send(0.0, 0.0)
+
+    def teleop(self, v: float, w: float) -> None:
+        """Drive by hand for ``teleop_hold_s``; cancels any goal."""
+        if self.goal is not None:
+            self.cancel()
+        self._teleop = (float(v), float(w))
+        self._teleop_until = time.monotonic() + self.settings.teleop_hold_s
+        self._send(*self._teleop)
+
+    async def run(self) -> None:
+        """The control loop (until cancelled)."""
+        period = 1.0 / self.settings.control_hz
+        while True:
+            await asyncio.sleep(period)
+            try:
+                await self._tick()
+            except Exception:  # a control bug must not kill the loop; stop the robot
+                log.exception("navigation tick failed")
+                self.cancel("failed", "internal navigation error")
+
+    async def _tick(self) -> None:
+        now = time.monotonic()
+        if self._teleop is not None:
+            if now < self._teleop_until:
+                self._send(*self._teleop)
+            else:
+                self._teleop = None
+                self._send(0.0, 0.0)
+            return
+        if self.state != "driving" or self.goal is None:
+            return
+        pose = self._pose()
+        if pose is None:
+            return
+        if math.hypot(pose[0] - self.goal.x, pose[1] - self.goal.y) <= self.settings.goal_tolerance:
+            self._send(0.0, 0.0)
+            self.state, self._follower = "arrived", None
+            return
+        if now - self._last_plan >= self.settings.replan_s and not self._replanning:
+            self._last_plan = now
+            self._replan_task = asyncio.create_task(self._replan(self._generation))
+        v, w = self._follower.command(np.asarray(pose, float))
+        self._send(v, w)
+
+    async def _replan(self, generation: int) -> None:
+        """Plan again on the grown map; a goal that became impossible fails with the reason."""
+        self._replanning = True
+        try:
+            path = await self._plan(self.goal)
+        except PlanningError as exc:
+            if generation == self._generation:
+                log.info("replanning failed: %s", exc)
+                self.cancel("failed", str(exc))
+            return
+        finally:
+            self._replanning = False
+        if generation == self._generation and self.state == "driving":
+            self.path = path
+            self._follower = follower_for(path, self.settings)

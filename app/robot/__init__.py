@@ -1,0 +1,1 @@
+"""The robot side: the simulated robot process (simulation mode) and the sensor sources a worker reads."""

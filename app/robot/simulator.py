@@ -1,0 +1,111 @@
+"""The simulated robot in its own process: physics, lidar, and the virtual MCU on a pty.
+
+The server talks to it exactly as to a real robot: odometry and velocity commands go
+over the serial link (the worker's odometry grabber opens the pty path with pyserial),
+scans arrive in a shared slot (:mod:`app.robot.scan_slot`); a real robot's come from
+``settings.sensor_source``.
+Ground truth is published in a shared array for status and tests only.
+"""
+
+from __future__ import annotations
+
+import multiprocessing as mp
+import signal
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from app.robot.scan_slot import ScanSlot
+
+PHYSICS_HZ = 100.0
+SCAN_HZ = 15.0
+#: The MCU stops the wheels when no velocity command came for this long (s).
+COMMAND_TIMEOUT = 1.0
+STARTUP_TIMEOUT = 60.0
+
+
+@dataclass
+class SimHandles:
+    """What the server keeps of the simulator process."""
+
+    process: mp.Process
+    port: str
+    scans: ScanSlot
+    truth: mp.Array  # x, y, yaw, sim time
+    stop: mp.Event
+
+    def true_pose(self) -> np.ndarray:
+        with self.truth.get_lock():
+            return np.array(self.truth[:3])
+
+    def shutdown(self, timeout: float = 5.0) -> None:
+        self.stop.set()
+        self.process.join(timeout)
+        if self.process.is_alive():
+            self.process.terminate()
+            self.process.join(timeout)
+
+
+def start_simulator(world: str, seed: int, ctx=None) -> SimHandles:
+    """Start the simulator process and wait until its serial device exists."""
+    ctx = ctx or mp.get_context("spawn")
+    scans = ScanSlot.create(ctx)
+    truth = ctx.Array("d", 4)
+    stop = ctx.Event()
+    parent, child = ctx.Pipe(duplex=False)
+    proc = ctx.Process(target=run_simulator, args=(world, seed, scans, truth, stop, child),
+                       name="homebot-sim", daemon=True)
+    proc.start()
+    child.close()
+    if not parent.poll(STARTUP_TIMEOUT):
+        proc.terminate()
+        raise RuntimeError("the simulator did not start")
+    message = parent.recv()
+    if isinstance(message, Exception):
+        proc.join(5)
+        raise message
+    return SimHandles(proc, message, scans, truth, stop)
+
+
+def run_simulator(world_name: str, seed: int, scans: ScanSlot, truth, stop, ready) -> None:
+    """The simulator process: step physics in real time, scan, serve the MCU pty."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the server stops us through ``stop``
+    from slam_core.sim.lidar import Lidar
+    from slam_core.sim.robot import SimRobot
+    from slam_core.sim.world import load_world
+
+    from app.robot_link.virtual_mcu import VirtualMCU
+
+    try:
+        world = load_world(world_name)
+        rng = np.random.default_rng(seed)
+        robot = SimRobot(world, rng=np.random.default_rng(seed + 1))
+        lidar = Lidar(world)
+        lidar.scan(robot.true_pose, rng)  # compile the ray caster before reporting ready
+        mcu = VirtualMCU(robot, command_timeout=COMMAND_TIMEOUT).start()
+    except Exception as exc:  # reported to the parent, which raises it
+        ready.send(RuntimeError(f"simulator failed to start: {exc}"))
+        return
+    ready.send(mcu.path)
+    dt = 1.0 / PHYSICS_HZ
+    scan_every = max(1, round(PHYSICS_HZ / SCAN_HZ))
+    tick = 0
+    next_time = time.monotonic()
+    try:
+        while not stop.is_set():
+            robot.step(dt)
+            pose = robot.true_pose
+            with truth.get_lock():
+                truth[:] = [pose[0], pose[1], pose[2], robot.time]
+            tick += 1
+            if tick % scan_every == 0:
+                scans.write(lidar.scan(pose, rng, timestamp=time.time()))
+            next_time += dt
+            delay = next_time - time.monotonic()
+            if delay > 0:
+                time.sleep(delay)
+            elif delay < -1.0:  # far behind (machine busy): do not try to catch up
+                next_time = time.monotonic()
+    finally:
+        mcu.stop()

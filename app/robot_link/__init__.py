@@ -1,0 +1,1 @@
+"""The serial link to the robot's microcontroller: frame protocol and a virtual MCU on a pty."""

@@ -1,0 +1,235 @@
+"""The running robot as the server sees it: simulator, worker, navigator, stream pumps, storage.
+
+Built in the app's lifespan. Everything that takes time (the worker's steps, map
+encoding, planning, image files) happens off the event loop: in the worker
+process or in threads.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+import time
+from collections import deque
+
+import numpy as np
+
+from app.core.config import Settings
+from app.db.store import Store
+from app.navigation.navigator import Navigator
+from app.robot.simulator import SimHandles, start_simulator
+from app.streaming import map_frames
+from app.streaming.hub import Hub
+from app.worker.shared_map import MapSnapshot
+from app.worker.supervisor import WorkerSupervisor
+from slam_core.occupancy_grid import OccupancyGrid
+from slam_core.sim.world import load_world
+
+log = logging.getLogger(__name__)
+
+EVENTS_KEPT = 50
+SCAN_DECIMALS = 2
+POSE_DECIMALS = 4
+
+
+def _rounded(array, decimals: int):
+    return None if array is None else np.round(np.asarray(array, float), decimals).tolist()
+
+
+class Runtime:
+    """Owns the robot pipeline for one server run."""
+
+    def __init__(self, settings: Settings, token: str):
+        self.settings = settings
+        self.token = token
+        settings.data_dir.mkdir(parents=True, exist_ok=True)
+        settings.maps_dir.mkdir(parents=True, exist_ok=True)
+        self.store = Store(settings.db_path)
+        self.hub = Hub(self.full_map_frame, settings.client_send_timeout_s)
+        self.navigator = Navigator(settings, self.current_grid, self.current_pose, self.send_velocity)
+        self.sim: SimHandles | None = None
+        self.supervisor: WorkerSupervisor | None = None
+        self.latest: dict | None = None
+        self.mode = settings.mode
+        self.mapping = True
+        self.events: deque[dict] = deque(maxlen=EVENTS_KEPT)
+        self.map_snapshot: MapSnapshot | None = None
+        self._full_cache: tuple[int, bytes] | None = None
+        self._grid_cache: tuple[int, OccupancyGrid] | None = None
+        self._last_stream = 0.0
+        self._published_states = 0
+        self._rate_window: deque[float] = deque(maxlen=64)
+        self._tasks: list[asyncio.Task] = []
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self.started_at = time.time()
+
+    # lifecycle
+    async def start(self) -> None:
+        self._loop = asyncio.get_running_loop()
+        s = self.settings
+        start = (0.0, 0.0, 0.0)
+        if s.simulation:
+            self.sim = await asyncio.to_thread(start_simulator, s.world, s.seed)
+            port, slot = self.sim.port, self.sim.scans
+            start = load_world(s.world).start  # map frame = world frame in simulation
+        else:
+            port, slot = s.serial_port, None
+        self.supervisor = WorkerSupervisor(s, port, slot, self._from_relay, start)
+        self.supervisor.start()
+        for coro in (self._stream_ticker(), self._map_pump(), self._status_ticker(), self.navigator.run()):
+            self._tasks.append(asyncio.create_task(coro))
+
+    async def stop(self) -> None:
+        for task in self._tasks:
+            task.cancel()
+        for task in self._tasks:
+            with contextlib.suppress(asyncio.CancelledError, Exception):
+                await task
+        await self.hub.close_all()
+        if self.supervisor is not None:
+            with contextlib.suppress(Exception):
+                self.navigator.cancel()
+            await asyncio.to_thread(self.supervisor.stop)
+        if self.sim is not None:
+            await asyncio.to_thread(self.sim.shutdown)
+
+    # worker messages (the relay thread hands them to the loop)
+    def _from_relay(self, message: dict) -> None:
+        loop = self._loop
+        if loop is not None and not loop.is_closed():
+            with contextlib.suppress(RuntimeError):
+                loop.call_soon_threadsafe(self._on_worker_message, message)
+
+    def _on_worker_message(self, message: dict) -> None:
+        if message["kind"] == "state":
+            self.latest = message
+            self.mode, self.mapping = message["mode"], message["mapping"]
+            self._rate_window.append(time.monotonic())
+            self._publish_state()
+            return
+        event = {k: v for k, v in message.items() if k not in ("kind", "trace")}
+        self.events.append(event)
+        if event["event"] in ("started", "changed") and "mode" in event:
+            self.mode = event["mode"]
+            self.mapping = event.get("mapping", self.mapping)
+        if event["event"] == "error":
+            self.hub.publish("error", {"detail": event.get("detail")})
+        if event["event"] in ("restarted", "started", "changed", "crashed"):
+            self.hub.publish("status", self.status())
+
+    def _publish_state(self) -> None:
+        m = self.latest
+        if m is None:
+            return
+        pose = m["pose"]
+        base = {"t": m["t"], "seq": m["seq"]}
+        hub = self.hub
+        hub.publish("pose", {**base, "x": round(float(pose[0]), POSE_DECIMALS),
+                             "y": round(float(pose[1]), POSE_DECIMALS),
+                             "yaw": round(float(pose[2]), POSE_DECIMALS), "localized": m["localized"]})
+        hub.publish("particles", {**base, "particles": _rounded(m["particles"], 3),
+                                  "weights": _rounded(m["weights"], 6)})
+        hub.publish("scan", {**base, "pose": _rounded(pose, POSE_DECIMALS),
+                             "points": _rounded(m["points"], SCAN_DECIMALS)})
+        if m.get("landmarks") is not None:
+            hub.publish("landmarks", {**base, "landmarks": _rounded(m["landmarks"], 3),
+                                      "covariances": _rounded(m["landmark_covariances"], 5)})
+        hub.publish("path", {"t": time.time(), **self.navigator.snapshot()})
+        self._last_stream = time.monotonic()
+
+    # pumps
+    async def _stream_ticker(self) -> None:
+        """Keep pose/particles/scan/path at >= ``stream_hz`` even when the worker is not stepping."""
+        period = 1.0 / self.settings.stream_hz
+        while True:
+            await asyncio.sleep(period / 2)
+            if time.monotonic() - self._last_stream >= period:
+                if self.latest is not None:
+                    self._publish_state()
+                else:
+                    self.hub.publish("path", {"t": time.time(), **self.navigator.snapshot()})
+                    self._last_stream = time.monotonic()
+
+    async def _status_ticker(self) -> None:
+        while True:
+            await asyncio.sleep(1.0 / self.settings.status_hz)
+            self.hub.publish("status", self.status())
+
+    async def _map_pump(self) -> None:
+        """Read the shared map at ``map_hz``; send changed tiles (FULL on a new layout)."""
+        tile = self.settings.tile_size
+        while True:
+            await asyncio.sleep(1.0 / self.settings.map_hz)
+            snapshot = await asyncio.to_thread(self.supervisor.shared_map.snapshot)
+            last = self.map_snapshot
+            if snapshot is None or (last is not None and snapshot.seq == last.seq):
+                continue
+            if last is None or snapshot.epoch != last.epoch or len(snapshot.stamps) != len(last.stamps):
+                self.map_snapshot = snapshot
+                self.hub.publish_map(None)
+                continue
+            changed = np.flatnonzero(snapshot.stamps > last.seq)
+            delta = await asyncio.to_thread(map_frames.encode, snapshot, tile, changed)
+            self.map_snapshot = snapshot
+            self.hub.publish_map(delta)
+
+    def full_map_frame(self) -> bytes | None:
+        snapshot = self.map_snapshot
+        if snapshot is None:
+            return None
+        if self._full_cache is None or self._full_cache[0] != snapshot.seq:
+            self._full_cache = (snapshot.seq, map_frames.encode(snapshot, self.settings.tile_size))
+        return self._full_cache[1]
+
+    # what routes and the navigator read
+    def current_grid(self) -> OccupancyGrid | None:
+        snapshot = self.map_snapshot
+        if snapshot is None:
+            return None
+        if self._grid_cache is None or self._grid_cache[0] != snapshot.seq:
+            self._grid_cache = (snapshot.seq, snapshot.grid())
+        return self._grid_cache[1]
+
+    def current_pose(self) -> np.ndarray | None:
+        return None if self.latest is None else np.asarray(self.latest["pose"], float)
+
+    def send_velocity(self, v: float, w: float) -> None:
+        if self.supervisor is not None:
+            self.supervisor.send("velocity", float(v), float(w))
+
+    def state_rate(self) -> float:
+        """Worker states received per second over the recent window."""
+        w = self._rate_window
+        if len(w) < 2 or time.monotonic() - w[-1] > 1.0:
+            return 0.0
+        return (len(w) - 1) / (w[-1] - w[0])
+
+    def status(self) -> dict:
+        latest = self.latest
+        pose = self.current_pose()
+        snap = self.map_snapshot
+        health = self.supervisor.health.dict() if self.supervisor else {}
+        health["steps"] = latest["steps"] if latest else 0
+        health["rate_hz"] = round(latest["rate_hz"], 2) if latest else 0.0
+        nav = self.navigator
+        return {
+            "mode": self.mode,
+            "mapping": self.mapping,
+            "pose": None if pose is None else dict(zip(("x", "y", "yaw"), map(float, pose), strict=True)),
+            "localized": bool(latest["localized"]) if latest else False,
+            "worker": health,
+            "map": None if snap is None else {"width": snap.width, "height": snap.height,
+                                              "resolution": snap.resolution, "origin": list(snap.origin),
+                                              "seq": snap.seq},
+            "goal": nav.goal.dict() if nav.goal else None,
+            "nav": {"state": nav.state, "reason": nav.reason},
+            "path_length": nav.path_length(),
+            "rates": {"state_hz": round(self.state_rate(), 2), "stream_hz": self.settings.stream_hz,
+                      "map_hz": self.settings.map_hz},
+            "clients": len(self.hub.clients),
+            "sim": self.settings.simulation,
+            "true_pose": None if self.sim is None else [float(v) for v in self.sim.true_pose()],
+            "events": list(self.events)[-5:],
+            "time": time.time(),
+        }

@@ -1,0 +1,1 @@
+"""The estimator process: grabbers -> synchronised steps -> published pose, particles, scan and map."""

@@ -1,0 +1,257 @@
+"""The SLAM worker process: synchronised estimator steps, published state, map and checkpoints.
+
+Persistent synchronisation (the seed's SLAM loop): a step is taken only when BOTH a
+new odometry reading and a new scan have arrived since the last step; stale data is
+never stepped twice. After each step the pose, particle cloud and scan go to the
+server on a small queue; the map goes into shared memory at ``map_hz``, with per-tile
+change stamps (:mod:`app.worker.shared_map`), so the map is never pickled.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import math
+import queue
+import signal
+import threading
+import time
+import traceback
+from dataclasses import dataclass
+
+import numpy as np
+
+from app.core.config import Settings
+from app.grabbers.odometry_grabber import OdometryGrabber
+from app.grabbers.scan_grabber import ScanGrabber, load_sensor_source
+from app.grabbers.shared import Latest
+from app.worker.checkpoint import load_checkpoint, save_checkpoint, save_exit_map
+from app.worker.estimators import Checkpoint, ModeUnavailable, make_estimator
+from app.worker.shared_map import SharedMap, grid_cells
+from slam_core.geometry import compose, relative, transform_points
+from slam_core.io.ros_map import load_map
+
+log = logging.getLogger(__name__)
+
+WAIT_S = 0.05
+RATE_SMOOTHING = 0.2
+#: Keep this many poses of the trajectory drawn on the exit PNG.
+TRAJECTORY_KEEP = 20000
+
+
+@dataclass
+class WorkerSpec:
+    """Everything the worker process needs (picklable)."""
+
+    settings: dict
+    shm_name: str
+    port: str
+    restart: int = 0
+    initial_pose: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+
+def put_newest(q, item) -> None:
+    """Non-blocking put that drops the item when the server is not keeping up."""
+    with contextlib.suppress(queue.Full):
+        q.put_nowait(item)
+
+
+class Worker:
+    """The loop run by :func:`worker_main` (a class so its parts stay small)."""
+
+    def __init__(self, spec: WorkerSpec, commands, states, scan_slot):
+        self.settings = Settings(**spec.settings)
+        self.spec = spec
+        self.commands = commands
+        self.states = states
+        self.stop = threading.Event()
+        s = self.settings
+        self.shm = SharedMap(s.map_capacity_cells, s.tile_size, name=spec.shm_name)
+        self.wakeup = threading.Event()
+        self.odometry = Latest()
+        self.scans = Latest()
+        self.odometry_grabber = OdometryGrabber(spec.port, s.serial_baud, output=self.odometry)
+        if scan_slot is not None:
+            self.scan_grabber = ScanGrabber(slot=scan_slot, output=self.scans)
+        else:
+            self.scan_grabber = ScanGrabber(source=load_sensor_source(s.sensor_source), output=self.scans)
+        checkpoint = load_checkpoint(s.checkpoint_dir)
+        self.mode = checkpoint.mode if checkpoint else s.mode
+        self.mapping = checkpoint.mapping if checkpoint else True
+        self.map_name = checkpoint.map_name if checkpoint else None
+        self.pose = checkpoint.pose.copy() if checkpoint else np.array(spec.initial_pose, float)
+        checkpoint = checkpoint or Checkpoint(self.mode, self.pose.copy())
+        try:
+            self.estimator = make_estimator(self.mode, s, checkpoint)
+        except ModeUnavailable as exc:
+            self._event("error", detail=str(exc))
+            self.mode = "mapping"
+            self.estimator = make_estimator("mapping", s, checkpoint)
+        self.anchor: tuple[np.ndarray, np.ndarray] | None = None
+        self.steps = 0
+        self.rate_hz = 0.0
+        self.last_step = None
+        self.trajectory: list[np.ndarray] = []
+        self.map_written = False
+
+    # messages to the server
+    def _event(self, event: str, **fields) -> None:
+        put_newest(self.states, {"kind": "event", "event": event, "t": time.time(), **fields})
+
+    def _publish_state(self, scan, estimate) -> None:
+        s = self.settings
+        particles = estimate.particles
+        weights = estimate.weights
+        if particles is not None and len(particles) > s.max_particles_streamed:
+            stride = math.ceil(len(particles) / s.max_particles_streamed)
+            particles = particles[::stride]
+            weights = weights[::stride] if weights is not None else None
+        pose = np.asarray(estimate.pose, float)
+        points = transform_points(pose, scan.points()).astype(np.float32)
+        put_newest(self.states, {
+            "kind": "state", "t": time.time(), "seq": self.steps, "pose": pose,
+            "localized": bool(estimate.localized),
+            "particles": None if particles is None else np.asarray(particles, np.float32),
+            "weights": None if weights is None else np.asarray(weights, np.float32),
+            "points": points, "mode": self.mode, "mapping": self.mapping, "steps": self.steps,
+            "rate_hz": self.rate_hz,
+            "landmarks": estimate.landmarks, "landmark_covariances": estimate.landmark_covariances,
+        })
+
+    # estimator management
+    def _checkpoint(self) -> Checkpoint:
+        return Checkpoint(self.mode, self.pose.copy(), self.estimator.occupancy_map(), self.mapping,
+                          self.map_name)
+
+    def _rebuild(self, mode: str, grid=None, pose=None, mapping=None, map_name=None) -> None:
+        """Swap the estimator, keeping the map frame continuous (odometry re-anchored)."""
+        current = self._checkpoint()
+        checkpoint = Checkpoint(
+            mode, current.pose if pose is None else np.asarray(pose, float),
+            current.grid if grid is None else grid,
+            current.mapping if mapping is None else mapping,
+            map_name if map_name is not None else current.map_name)
+        estimator = make_estimator(mode, self.settings, checkpoint)  # ModeUnavailable: keep the old one
+        self.estimator, self.mode, self.mapping = estimator, mode, checkpoint.mapping
+        self.pose, self.map_name = checkpoint.pose, checkpoint.map_name
+        self.anchor = None
+        self.map_written = False
+
+    def _handle(self, command: tuple) -> None:
+        name, *args = command
+        if name == "velocity":
+            self.odometry_grabber.send_velocity(*args)
+            return
+        try:
+            if name == "mode":
+                mode, yaml_path, map_name = args
+                grid = load_map(yaml_path) if yaml_path else None
+                self._rebuild(mode, grid=grid, mapping=True, map_name=map_name)
+            elif name == "pose":
+                self._rebuild(self.mode, pose=np.asarray(args, float))
+            elif name == "mapping":
+                self._rebuild("mapping", mapping=bool(args[0]))
+            elif name == "shutdown":
+                self.stop.set()
+                return
+            else:
+                raise ValueError(f"unknown worker command {name!r}")
+            self._event("changed", mode=self.mode, mapping=self.mapping)
+        except (ModeUnavailable, ValueError, OSError) as exc:
+            self._event("error", detail=f"{name}: {exc}")
+
+    def _drain_commands(self) -> None:
+        while True:
+            try:
+                command = self.commands.get_nowait()
+            except queue.Empty:
+                return
+            self._handle(command)
+
+    # the loop
+    def run(self) -> None:
+        s = self.settings
+        self.odometry_grabber.start()
+        self.scan_grabber.start()
+        self._event("started", restart=self.spec.restart, mode=self.mode)
+        last_odo = last_scan = 0
+        next_map = next_checkpoint = time.monotonic()
+        try:
+            while not self.stop.is_set():
+                self._drain_commands()
+                odo_seq, odo = self.odometry.get()
+                scan_seq, scan = self.scans.get()
+                if odo_seq > last_odo and scan_seq > last_scan:
+                    last_odo, last_scan = odo_seq, scan_seq
+                    self._step(odo.pose, scan)
+                else:
+                    # Wait for whichever is missing (never step on stale data).
+                    missing = self.odometry if odo_seq <= last_odo else self.scans
+                    missing.wait_newer(odo_seq if missing is self.odometry else scan_seq, WAIT_S)
+                now = time.monotonic()
+                if now >= next_map:
+                    self._publish_map()
+                    next_map = now + 1.0 / s.map_hz
+                if now >= next_checkpoint:
+                    save_checkpoint(s.checkpoint_dir, self._checkpoint())
+                    next_checkpoint = now + s.checkpoint_s
+        finally:
+            self._exit()
+
+    def _step(self, odometry: np.ndarray, scan) -> None:
+        if self.anchor is None:
+            self.anchor = (np.asarray(odometry, float).copy(), self.pose.copy())
+        odo0, pose0 = self.anchor
+        self.estimator.step(compose(pose0, relative(odo0, odometry)), scan)
+        estimate = self.estimator.estimate()
+        self.pose = np.asarray(estimate.pose, float)
+        self.steps += 1
+        now = time.monotonic()
+        if self.last_step is not None and now > self.last_step:
+            inst = 1.0 / (now - self.last_step)
+            self.rate_hz = inst if not self.rate_hz else self.rate_hz + RATE_SMOOTHING * (inst - self.rate_hz)
+        self.last_step = now
+        self.trajectory.append(self.pose.copy())
+        del self.trajectory[:-TRAJECTORY_KEEP]
+        self._publish_state(scan, estimate)
+
+    def _publish_map(self) -> None:
+        grid = self.estimator.occupancy_map()
+        if grid is None or not grid.data.size:
+            return
+        self.shm.publish(grid_cells(grid), grid.origin, grid.resolution, force_full=not self.map_written)
+        self.map_written = True
+
+    def _exit(self) -> None:
+        """Save the last map (PGM + YAML + PNG) and a final checkpoint; stop the grabbers."""
+        with contextlib.suppress(Exception):
+            self.odometry_grabber.send_velocity(0.0, 0.0)
+        s = self.settings
+        grid = self.estimator.occupancy_map()
+        if grid is not None and grid.data.size:
+            paths = save_exit_map(grid, s.last_map_stem, np.array(self.trajectory).reshape(-1, 3))
+            save_checkpoint(s.checkpoint_dir, self._checkpoint())
+            self._event("saved", paths=[str(p) for p in paths])
+        self.odometry_grabber.stop()
+        self.scan_grabber.stop()
+        self.shm.close()
+
+
+def worker_main(spec: WorkerSpec, commands, states, scan_slot) -> None:
+    """Process entry point: SIGINT/SIGTERM stop the loop, which then saves the map."""
+    logging.basicConfig(level=logging.WARNING)
+    worker = None
+
+    def _stop(signum, frame):
+        if worker is not None:
+            worker.stop.set()
+
+    signal.signal(signal.SIGTERM, _stop)
+    signal.signal(signal.SIGINT, _stop)
+    try:
+        worker = Worker(spec, commands, states, scan_slot)
+        worker.run()
+    except Exception as exc:
+        put_newest(states, {"kind": "event", "event": "crashed", "t": time.time(),
+                            "detail": f"{type(exc).__name__}: {exc}", "trace": traceback.format_exc()})
+        raise

@@ -1,0 +1,171 @@
+"""Runs the worker process, restarts it when it dies, and relays its messages to the server.
+
+Queues are made anew for every worker generation: a process killed while holding a
+queue's internal lock would otherwise wedge its successor. The shared map outlives
+the workers (the server owns it), so the map stays visible across a restart.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import multiprocessing as mp
+import os
+import queue
+import signal
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+from app.core.config import Settings
+from app.robot.scan_slot import ScanSlot
+from app.worker.process import WorkerSpec, worker_main
+from app.worker.shared_map import SharedMap
+
+log = logging.getLogger(__name__)
+
+STATES_MAX = 256
+COMMANDS_MAX = 256
+POLL_S = 0.1
+STOP_TIMEOUT_S = 15.0
+
+
+@dataclass
+class WorkerHealth:
+    """What the status route reports about the worker."""
+
+    alive: bool = False
+    pid: int | None = None
+    restarts: int = 0
+    started_at: float | None = None
+    last_error: str | None = None
+    last_exit_code: int | None = None
+    history: list[dict] = field(default_factory=list)
+
+    def dict(self) -> dict:
+        return {"alive": self.alive, "pid": self.pid, "restarts": self.restarts,
+                "started_at": self.started_at, "last_error": self.last_error,
+                "last_exit_code": self.last_exit_code}
+
+
+class WorkerSupervisor:
+    """Start/stop the worker; ``on_message(dict)`` is called from the relay thread for each message."""
+
+    def __init__(self, settings: Settings, port: str, scan_slot: ScanSlot | None,
+                 on_message: Callable[[dict], None], initial_pose=(0.0, 0.0, 0.0)):
+        self.settings = settings
+        self.port = port
+        self.scan_slot = scan_slot
+        self.on_message = on_message
+        self.initial_pose = tuple(float(v) for v in initial_pose)
+        self.ctx = mp.get_context("spawn")
+        self.shared_map = SharedMap(settings.map_capacity_cells, settings.tile_size, create=True)
+        self.health = WorkerHealth()
+        self._lock = threading.Lock()
+        self._process: mp.Process | None = None
+        self._commands = None
+        self._states = None
+        self._stopping = threading.Event()
+        self._relay: threading.Thread | None = None
+
+    # lifecycle
+    def start(self) -> None:
+        self._spawn()
+        self._relay = threading.Thread(target=self._run, name="worker-relay", daemon=True)
+        self._relay.start()
+
+    def _spawn(self) -> None:
+        with self._lock:
+            self._commands = self.ctx.Queue(COMMANDS_MAX)
+            self._states = self.ctx.Queue(STATES_MAX)
+            spec = WorkerSpec(self.settings.model_dump(), self.shared_map.name, self.port,
+                              self.health.restarts, self.initial_pose)
+            proc = self.ctx.Process(target=worker_main, name="homebot-worker", daemon=True,
+                                    args=(spec, self._commands, self._states, self.scan_slot))
+            proc.start()
+            self._process = proc
+            self.health.alive, self.health.pid, self.health.started_at = True, proc.pid, time.time()
+
+    def stop(self) -> None:
+        """Ask the worker to save and exit (SIGTERM), wait, then release the shared map."""
+        self._stopping.set()
+        proc = self._process
+        if proc is not None and proc.is_alive():
+            os.kill(proc.pid, signal.SIGTERM)
+            proc.join(STOP_TIMEOUT_S)
+            if proc.is_alive():
+                proc.kill()
+                proc.join()
+        if self._relay is not None:
+            self._relay.join(2.0)
+        self._drain()
+        self.health.alive = False
+        self.shared_map.close()
+        with contextlib.suppress(FileNotFoundError):
+            self.shared_map.unlink()
+
+    def kill(self) -> int | None:
+        """SIGKILL the worker (a crash, for tests and the API); returns the pid killed."""
+        proc = self._process
+        if proc is None or not proc.is_alive():
+            return None
+        os.kill(proc.pid, signal.SIGKILL)
+        return proc.pid
+
+    # commands
+    def send(self, *command) -> bool:
+        """Queue a command for the worker; False when it cannot take it now."""
+        try:
+            self._commands.put_nowait(command)
+            return True
+        except (queue.Full, ValueError, OSError, AttributeError):
+            return False
+
+    # relay
+    def _drain(self) -> None:
+        while True:
+            try:
+                message = self._states.get_nowait()
+            except (queue.Empty, OSError, ValueError, EOFError):
+                return
+            self._deliver(message)
+
+    def _deliver(self, message: dict) -> None:
+        if message.get("kind") == "event" and message.get("event") in ("crashed", "error"):
+            self.health.last_error = message.get("detail")
+        try:
+            self.on_message(message)
+        except Exception:  # a bug in a consumer must not stop the relay
+            log.exception("worker message consumer failed")
+
+    def _run(self) -> None:
+        while not self._stopping.is_set():
+            try:
+                message = self._states.get(timeout=POLL_S)
+            except queue.Empty:
+                message = None
+            except (OSError, EOFError, ValueError):
+                message = None
+                time.sleep(POLL_S)
+            if message is not None:
+                self._deliver(message)
+            proc = self._process
+            if proc is not None and not proc.is_alive() and not self._stopping.is_set():
+                self._restart(proc)
+
+    def _restart(self, proc: mp.Process) -> None:
+        self._drain()
+        code = proc.exitcode
+        self.health.alive = False
+        self.health.last_exit_code = code
+        if self.health.last_error is None or (code is not None and code < 0):
+            self.health.last_error = f"worker exited with code {code}"
+        self.health.restarts += 1
+        self.health.history.append({"time": time.time(), "exit_code": code})
+        log.warning("worker exited (code %s); restarting from the last checkpoint", code)
+        self._stopping.wait(self.settings.worker_restart_delay_s)
+        if not self._stopping.is_set():
+            self._spawn()
+            self.on_message({"kind": "event", "event": "restarted", "t": time.time(),
+                             "restarts": self.health.restarts, "exit_code": code})

@@ -1,0 +1,42 @@
+"""Latest: the thread-safe newest-value holder shared by grabbers and workers."""
+
+from __future__ import annotations
+
+import threading
+
+from app.grabbers.shared import Latest
+
+
+def test_empty_then_put_then_get():
+    box: Latest[str] = Latest()
+    assert box.get() == (0, None)
+    assert box.put("a") == 1
+    assert box.put("b") == 2
+    assert box.get() == (2, "b")
+
+
+def test_wait_newer_times_out_without_a_new_value():
+    box: Latest[int] = Latest()
+    box.put(1)
+    assert box.wait_newer(1, timeout=0.01) is None
+    assert box.wait_newer(0, timeout=0.01) == (1, 1)
+
+
+def test_wait_newer_wakes_on_put_from_another_thread():
+    box: Latest[int] = Latest()
+    got = []
+    reader = threading.Thread(target=lambda: got.append(box.wait_newer(0, timeout=5.0)))
+    reader.start()
+    box.put(42)
+    reader.join(5.0)
+    assert got == [(1, 42)]
+
+
+def test_concurrent_writers_never_lose_a_sequence_number():
+    box: Latest[int] = Latest()
+    writers = [threading.Thread(target=lambda: [box.put(i) for i in range(500)]) for _ in range(4)]
+    for w in writers:
+        w.start()
+    for w in writers:
+        w.join()
+    assert box.get()[0] == 2000
