@@ -88,6 +88,9 @@ class Dashboard {
       button.addEventListener("click", () => this.setTool(button.dataset.tool));
     }
     $("fit").addEventListener("click", () => this.fitMap());
+    for (const box of document.querySelectorAll("[data-layer]")) {
+      box.addEventListener("change", () => this.renderer.showLayer(box.dataset.layer, box.checked));
+    }
     $("follow").addEventListener("click", () => {
       this.follow = !this.follow;
       $("follow").setAttribute("aria-pressed", String(this.follow));

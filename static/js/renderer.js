@@ -8,7 +8,7 @@ export const ROBOT_RADIUS_M = 0.17;
 const MIN_ROBOT_RADIUS_PX = 9;
 const COLORS = {
   background: "#e8ebef",
-  grid: "rgba(40, 60, 90, 0.07)",
+  grid: "rgba(40, 60, 90, 0.09)",
   particle: "rgba(232, 93, 4, 0.55)",
   scan: "rgba(220, 38, 38, 0.85)",
   path: "#2563eb",
@@ -31,6 +31,12 @@ export class Renderer {
     this.dpr = 1;
     this.viewChanged = true;
     this.frames = 0;
+    this.layers = { scan: true, particles: true, path: true, landmarks: true, places: true };
+  }
+
+  showLayer(name, visible) {
+    this.layers[name] = visible;
+    this.viewChanged = true;
   }
 
   resize() {
@@ -66,16 +72,18 @@ export class Renderer {
     ctx.fillStyle = COLORS.background;
     ctx.fillRect(0, 0, this.canvas.width, this.canvas.height);
 
+    ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
+    this.drawGrid(); // under the map: it shows only where there is no map
     ctx.setTransform(...view.matrix(dpr));
     state.map.draw(ctx, view.scale * dpr);
 
     ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
-    this.drawGrid();
-    this.drawPlaces();
-    this.drawLandmarks();
-    this.drawScan();
-    this.drawParticles();
-    this.drawPath();
+    const layers = this.layers;
+    if (layers.places) this.drawPlaces();
+    if (layers.landmarks) this.drawLandmarks();
+    if (layers.scan) this.drawScan();
+    if (layers.particles) this.drawParticles();
+    if (layers.path) this.drawPath();
     this.drawRobot();
     this.drawPreview();
     this.drawScaleBar();
@@ -129,7 +137,7 @@ export class Renderer {
     const scan = this.state.scan;
     if (!scan || !scan.points.length) return;
     const [ox, oy] = view.worldToScreen(scan.pose[0], scan.pose[1]);
-    ctx.strokeStyle = "rgba(220, 38, 38, 0.12)";
+    ctx.strokeStyle = "rgba(220, 38, 38, 0.07)";
     ctx.lineWidth = 1;
     ctx.beginPath();
     for (const [x, y] of scan.points) {

@@ -9,11 +9,16 @@ from __future__ import annotations
 import functools
 import os
 import shutil
+import signal
+import socket
 import subprocess
+import sys
 import threading
+import time
 from http.server import SimpleHTTPRequestHandler, ThreadingHTTPServer
 from pathlib import Path
 
+import httpx
 import pytest
 from playwright.sync_api import sync_playwright
 
@@ -90,3 +95,77 @@ def static_url():
 def artifacts() -> Path:
     ARTIFACTS.mkdir(exist_ok=True)
     return ARTIFACTS
+
+
+SERVER_READY_TIMEOUT_S = 180  # a cold numba cache compiles the simulator and estimator kernels first
+SERVER_STOP_TIMEOUT_S = 30
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class HomebotServer:
+    """``python -m app.cli serve`` in simulation mode as a subprocess, on a free port."""
+
+    def __init__(self, data: Path, log: Path):
+        self.data = data
+        self.log_path = log
+        self.port = _free_port()
+        self.url = f"http://127.0.0.1:{self.port}/"
+        self.process: subprocess.Popen | None = None
+        self.token: str | None = None
+
+    def start(self) -> None:
+        command = [sys.executable, "-m", "app.cli", "serve", "--port", str(self.port),
+                   "--data", str(self.data)]
+        with open(self.log_path, "ab") as log:
+            self.process = subprocess.Popen(command, cwd=REPO, stdout=log, stderr=subprocess.STDOUT)
+        self.wait_ready()
+
+    def log_tail(self) -> str:
+        return self.log_path.read_text(errors="replace")[-3000:]
+
+    def api(self, method: str, path: str, **kwargs) -> httpx.Response:
+        headers = {"Authorization": f"Bearer {self.token}"}
+        return httpx.request(method, self.url + "api/" + path, headers=headers, timeout=10, **kwargs)
+
+    def wait_ready(self) -> None:
+        """Until the token exists, the API answers and the worker has published a pose and a map."""
+        deadline = time.monotonic() + SERVER_READY_TIMEOUT_S
+        while time.monotonic() < deadline:
+            if self.process.poll() is not None:
+                raise RuntimeError(f"homebot serve exited with {self.process.returncode}:\n{self.log_tail()}")
+            token_file = self.data / "token"
+            if token_file.exists():
+                self.token = token_file.read_text().strip()
+                try:
+                    status = self.api("GET", "status").json()
+                    if status.get("pose") and status.get("map") and status["worker"]["steps"] > 0:
+                        return
+                except httpx.HTTPError:
+                    pass
+            time.sleep(0.5)
+        raise RuntimeError(f"homebot serve not ready after {SERVER_READY_TIMEOUT_S} s:\n{self.log_tail()}")
+
+    def stop(self) -> None:
+        if self.process and self.process.poll() is None:
+            self.process.send_signal(signal.SIGINT)
+            try:
+                self.process.wait(timeout=SERVER_STOP_TIMEOUT_S)
+            except subprocess.TimeoutExpired:
+                self.process.kill()
+                self.process.wait()
+
+
+@pytest.fixture(scope="session")
+def homebot_server(tmp_path_factory, artifacts):
+    """A real homebot server with its simulated robot, shared by the live dashboard tests."""
+    data = tmp_path_factory.mktemp("homebot-data")
+    server = HomebotServer(data, artifacts / "homebot-serve.log")
+    server.log_path.write_text("")
+    server.start()
+    yield server
+    server.stop()
