@@ -119,7 +119,9 @@ class Navigator:
         pose = self._pose()
         if pose is None:
             return
-        if math.hypot(pose[0] - self.goal.x, pose[1] - self.goal.y) <= self.settings.goal_tolerance:
+        # The planner may snap a goal inside an obstacle to a free cell: arrive at the path's end.
+        tx, ty = self.path[-1] if len(self.path) else (self.goal.x, self.goal.y)
+        if math.hypot(pose[0] - tx, pose[1] - ty) <= self.settings.goal_tolerance:
             self._send(0.0, 0.0)
             self.state, self._follower = "arrived", None
             return
@@ -135,7 +137,8 @@ class Navigator:
         try:
             path = await self._plan(self.goal)
         except PlanningError as exc:
-            if generation == self._generation:
+            # The goal itself became impossible: give up. A transient start problem: keep the old path.
+            if generation == self._generation and exc.reason.startswith("goal_"):
                 log.info("replanning failed: %s", exc)
                 self.cancel("failed", str(exc))
             return

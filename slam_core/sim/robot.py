@@ -51,8 +51,8 @@ class WheelNoise:
     All values are fractions of the wheel's rotation (0.02 = 2 %).
     """
 
-    scale_std: float = 0.003
-    slip_std: float = 0.01
+    scale_std: float = 0.001
+    slip_std: float = 0.005
     slip_tau: float = 0.3
 
     @classmethod

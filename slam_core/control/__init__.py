@@ -1,0 +1,1 @@
+"""Controllers that turn a path into velocity commands (the last step before the robot)."""

@@ -1,0 +1,88 @@
+"""A real ``homebot serve`` in a subprocess on 127.0.0.1 (random free port), for tests."""
+
+from __future__ import annotations
+
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import httpx
+
+ROOT = Path(__file__).resolve().parent.parent
+START_TIMEOUT_S = 90.0
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class LiveServer:
+    def __init__(self, data_dir: Path, world: str = "flat", env: dict | None = None):
+        self.data_dir = Path(data_dir)
+        self.world = world
+        self.env = env or {}
+        self.port = 0
+        self.proc: subprocess.Popen | None = None
+        self.output = ""
+
+    @property
+    def base(self) -> str:
+        return f"http://127.0.0.1:{self.port}"
+
+    @property
+    def ws_url(self) -> str:
+        return f"ws://127.0.0.1:{self.port}/ws"
+
+    @property
+    def token(self) -> str:
+        return (self.data_dir / "token").read_text().strip()
+
+    def client(self, token: bool = True) -> httpx.Client:
+        headers = {"Authorization": f"Bearer {self.token}"} if token else {}
+        return httpx.Client(base_url=self.base, headers=headers, timeout=30.0)
+
+    def start(self) -> LiveServer:
+        self.port = free_port()
+        env = {**os.environ, **self.env, "PYTHONPATH": str(ROOT)}
+        self.proc = subprocess.Popen(
+            [sys.executable, "-m", "app.cli", "serve", "--port", str(self.port), "--data", str(self.data_dir),
+             "--world", self.world],
+            cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        deadline = time.monotonic() + START_TIMEOUT_S
+        while time.monotonic() < deadline:
+            if self.proc.poll() is not None:
+                raise RuntimeError(f"server exited: {self.proc.stdout.read()}")
+            try:
+                with self.client() as c:
+                    status = c.get("/api/status").json()
+                if status.get("map") is not None and status.get("pose") is not None:
+                    return self
+            except (httpx.HTTPError, ValueError, OSError):
+                pass
+            time.sleep(0.3)
+        self.stop()
+        raise RuntimeError("server did not become ready")
+
+    def status(self) -> dict:
+        with self.client() as c:
+            return c.get("/api/status").json()
+
+    def stop(self) -> int | None:
+        if self.proc is None:
+            return None
+        if self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGTERM)
+            try:
+                self.proc.wait(30)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+        self.output = self.proc.stdout.read()
+        code, self.proc = self.proc.returncode, None
+        return code
