@@ -89,11 +89,20 @@ export class MapTiles {
     const image = new ImageData(size, size);
     const pixels = new Uint32Array(image.data.buffer);
     let known = 0;
+    const box = [size, size, -1, -1]; // known cells' [ix0, iy0, ix1, iy1] inside the tile
     for (let i = 0; i < cells.length; i++) {
       const value = cells[i];
-      if (value !== UNKNOWN) known++;
       pixels[i] = PALETTE[value];
+      if (value === UNKNOWN) continue;
+      known++;
+      const ix = i % size;
+      const iy = (i - ix) / size;
+      if (ix < box[0]) box[0] = ix;
+      if (iy < box[1]) box[1] = iy;
+      if (ix > box[2]) box[2] = ix;
+      if (iy > box[3]) box[3] = iy;
     }
+    entry.box = box;
     // Row 0 of the tile is its smallest y; the world transform (y up) puts image row 0 at the bottom.
     entry.canvas.getContext("2d").putImageData(image, 0, 0);
     entry.known = known;
@@ -121,24 +130,26 @@ export class MapTiles {
     return [m.originX, m.originY, m.originX + m.width * m.resolution, m.originY + m.height * m.resolution];
   }
 
-  // World rectangle of the known cells' tiles (for "fit map"), or the whole map when nothing is known.
+  // World rectangle of the known cells (for "fit map"), or the whole map when nothing is known.
   knownBounds() {
     const m = this.meta;
     if (!m) return null;
-    let tx0 = Infinity;
-    let ty0 = Infinity;
-    let tx1 = -Infinity;
-    let ty1 = -Infinity;
+    let x0 = Infinity;
+    let y0 = Infinity;
+    let x1 = -Infinity;
+    let y1 = -Infinity;
     for (const t of this.tiles.values()) {
       if (t.known === 0) continue;
-      tx0 = Math.min(tx0, t.tx);
-      ty0 = Math.min(ty0, t.ty);
-      tx1 = Math.max(tx1, t.tx + 1);
-      ty1 = Math.max(ty1, t.ty + 1);
+      const ix = t.tx * m.tileSize;
+      const iy = t.ty * m.tileSize;
+      x0 = Math.min(x0, ix + t.box[0]);
+      y0 = Math.min(y0, iy + t.box[1]);
+      x1 = Math.max(x1, ix + t.box[2] + 1);
+      y1 = Math.max(y1, iy + t.box[3] + 1);
     }
-    if (tx0 === Infinity) return this.bounds();
-    const span = m.tileSize * m.resolution;
-    return [m.originX + tx0 * span, m.originY + ty0 * span, m.originX + tx1 * span, m.originY + ty1 * span];
+    if (x0 === Infinity) return this.bounds();
+    const r = m.resolution;
+    return [m.originX + x0 * r, m.originY + y0 * r, m.originX + x1 * r, m.originY + y1 * r];
   }
 
   // Draw every tile; ctx must carry the world transform (view.matrix). The map is clipped to W x H cells.

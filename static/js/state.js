@@ -4,6 +4,7 @@
 import { MapTiles } from "./maptiles.js";
 
 const GOAL_MATCH_M = 0.01; // the server echoes the goal it was sent
+const RATE_WINDOW_MS = 2000;
 
 export class State {
   constructor() {
@@ -19,7 +20,7 @@ export class State {
     this.goalHeading = null; // {x, y, yaw}: the heading the user dragged for the goal at (x, y)
     this.online = false;
     this.lastError = null;
-    this.rates = new Map(); // message type -> {count, since, hz}
+    this.rates = new Map(); // message type -> arrival times (ms) within the last RATE_WINDOW_MS
     this.listeners = new Set();
     this.dirty = true;
   }
@@ -34,23 +35,21 @@ export class State {
     for (const listener of this.listeners) listener(what);
   }
 
-  // Count messages per type: the status bar shows the rate at which poses arrive.
+  // Note the arrival of a message: the status bar shows the rate at which poses arrive.
   tick(type, now = performance.now()) {
-    let r = this.rates.get(type);
-    if (!r) {
-      r = { count: 0, since: now, hz: 0 };
-      this.rates.set(type, r);
+    let times = this.rates.get(type);
+    if (!times) {
+      times = [];
+      this.rates.set(type, times);
     }
-    r.count++;
-    if (now - r.since >= 1000) {
-      r.hz = (r.count * 1000) / (now - r.since);
-      r.count = 0;
-      r.since = now;
-    }
+    times.push(now);
+    while (times.length && times[0] < now - RATE_WINDOW_MS) times.shift();
   }
 
-  rate(type) {
-    return this.rates.get(type)?.hz ?? 0;
+  // Messages of `type` per second over the last RATE_WINDOW_MS.
+  rate(type, now = performance.now()) {
+    const times = this.rates.get(type) ?? [];
+    return times.filter((t) => t >= now - RATE_WINDOW_MS).length / (RATE_WINDOW_MS / 1000);
   }
 
   // The dragged heading of the current goal, if the user gave one for it (null otherwise).

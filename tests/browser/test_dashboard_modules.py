@@ -204,8 +204,8 @@ def test_map_tiles_draw_cells_where_they_are_in_the_world(modules):
     assert first["cellAt"] == [100, 0, 255]
     assert out["applied"] is True and out["version"] == 2
     assert out["topRight"] == out["occ"] and out["stillOcc"] == out["occ"]
-    # the known cells sit in tiles 1 (bottom-right) and 2 (top-left): their box spans all four tiles
-    assert first["known"] == pytest.approx([-1.0, -2.0, -1.0 + 128 * 0.05, -2.0 + 128 * 0.05])
+    # the known cells span ix, iy in [5, 95): "fit" frames exactly them
+    assert first["known"] == pytest.approx([-1.0 + 5 * 0.05, -2.0 + 5 * 0.05, -1.0 + 95 * 0.05, -2.0 + 95 * 0.05])
 
 
 def test_delta_that_does_not_fit_the_map_is_dropped(modules):
