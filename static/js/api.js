@@ -25,7 +25,8 @@ export function errorMessage(status, body) {
     return String(detail.message ?? detail.reason ?? JSON.stringify(detail)); // e.g. the planner's reason
   }
   if (Array.isArray(detail)) {
-    return detail.map((d) => `${(d.loc ?? []).filter((p) => p !== "body").join(".") || "input"}: ${d.msg}`).join("; ");
+    const where = (d) => (d.loc ?? []).filter((p) => p !== "body").join(".") || "input";
+    return detail.map((d) => `${where(d)}: ${String(d.msg).replace(/^Value error, /, "")}`).join("; ");
   }
   return `HTTP ${status}`;
 }

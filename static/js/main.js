@@ -87,7 +87,10 @@ class Dashboard {
     for (const button of document.querySelectorAll("[data-tool]")) {
       button.addEventListener("click", () => this.setTool(button.dataset.tool));
     }
-    $("fit").addEventListener("click", () => this.fitMap());
+    $("fit").addEventListener("click", () => {
+      this.userMovedView = false; // follow the growing map again
+      this.fitMap();
+    });
     for (const box of document.querySelectorAll("[data-layer]")) {
       box.addEventListener("change", () => this.renderer.showLayer(box.dataset.layer, box.checked));
     }
@@ -104,6 +107,7 @@ class Dashboard {
         this.fail(err);
       }
     });
+    $("st-error").addEventListener("click", () => this.state.setError(null)); // dismiss
     $("menu-toggle").addEventListener("click", () => {
       const open = document.body.classList.toggle("menu-open");
       $("menu-toggle").setAttribute("aria-expanded", String(open));
@@ -220,9 +224,9 @@ class Dashboard {
     this.mapQueue = this.mapQueue
       .then(() => decodeMapFrame(buffer))
       .then((frame) => {
-        const firstMap = !this.state.map.ready;
         if (this.state.map.apply(frame)) {
-          if (firstMap && !this.userMovedView) this.fitMap();
+          // The whole known map stays in view as it grows, until the user pans or zooms himself.
+          if (!this.userMovedView && !this.follow) this.fitMap();
           this.state.changed("map");
         }
       })

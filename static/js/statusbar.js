@@ -51,7 +51,7 @@ export class StatusBar {
     const message = state.lastError?.message ?? worker?.last_error ?? null;
     this.error.hidden = !message;
     this.error.textContent = message ? `⚠ ${message}` : "";
-    this.error.title = message ?? "";
+    this.error.title = message ? `${message} (click to dismiss)` : "";
 
     this.renderDetails(s, worker);
   }

@@ -123,6 +123,12 @@ def test_click_sends_a_goal_the_path_is_drawn_and_the_robot_drives_there(dashboa
     # Scan and particles hidden so that the map's own pixels can be counted exactly.
     page.uncheck("[data-layer=scan]")
     page.uncheck("[data-layer=particles]")
+    # A touch of wheel zoom: the view stops fitting the growing map and stays put from here on.
+    box = page.locator("#map").bounding_box()
+    page.mouse.move(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
+    page.mouse.wheel(0, -40)
+    page.wait_for_function("window.homebot.userMovedView")
+    scale = state(page, "window.homebot.view.scale")
     known_before = page.evaluate(KNOWN_PIXELS_JS)
     marker_before = page.evaluate(MARKER_JS, ROBOT_RGB)
     assert marker_before is not None, "the robot's marker is drawn"
@@ -173,7 +179,7 @@ def test_click_sends_a_goal_the_path_is_drawn_and_the_robot_drives_there(dashboa
     marker_after = page.evaluate(MARKER_JS, ROBOT_RGB)
     screen_before = math.hypot(goal["sx"] - marker_before[0], goal["sy"] - marker_before[1])
     screen_after = math.hypot(goal["sx"] - marker_after[0], goal["sy"] - marker_after[1])
-    scale = state(page, "window.homebot.view.scale")
+    assert state(page, "window.homebot.view.scale") == scale, "the view did not move under the test"
     assert screen_after < screen_before - 0.4 * scale, "the marker on the canvas moved toward the goal"
 
     # The simulated robot mapped as it drove: more of the canvas shows known cells.

@@ -205,7 +205,8 @@ def test_map_tiles_draw_cells_where_they_are_in_the_world(modules):
     assert out["applied"] is True and out["version"] == 2
     assert out["topRight"] == out["occ"] and out["stillOcc"] == out["occ"]
     # the known cells span ix, iy in [5, 95): "fit" frames exactly them
-    assert first["known"] == pytest.approx([-1.0 + 5 * 0.05, -2.0 + 5 * 0.05, -1.0 + 95 * 0.05, -2.0 + 95 * 0.05])
+    lo, hi = 5 * 0.05, 95 * 0.05
+    assert first["known"] == pytest.approx([-1.0 + lo, -2.0 + lo, -1.0 + hi, -2.0 + hi])
 
 
 def test_delta_that_does_not_fit_the_map_is_dropped(modules):
@@ -294,3 +295,49 @@ def test_index_loads_without_script_errors(page, static_url):
     page.wait_for_selector("#offline-banner", state="visible", timeout=10_000)
     assert page.locator("#st-conn").inner_text().strip() == "offline"
     assert page.js_errors == []
+
+
+def test_renderer_draws_landmark_ellipses_robot_heading_and_scan_where_they_are(modules):
+    """Landmark ellipses (EKF mode) along their covariance's axes, the robot's arrow along its yaw
+    (REP-103: yaw pi/2 points up the screen), scan points at their world positions."""
+    out = run(modules, """
+        const { State } = await import('./state.js');
+        const { Renderer, ROBOT_RADIUS_M } = await import('./renderer.js');
+        const canvas = document.createElement('canvas');
+        canvas.width = 400; canvas.height = 400;
+        const state = new State();
+        const r = new Renderer(canvas, state);
+        r.view.resize(400, 400); r.view.centerOn(1, 2); r.view.scale = 100;
+        state.handle({ type: 'landmarks', landmarks: [[1, 2]], covariances: [[[0.09, 0], [0, 0.01]]] });
+        state.handle({ type: 'pose', x: 0, y: 2, yaw: Math.PI / 2, localized: true });
+        state.handle({ type: 'scan', pose: [0, 2, Math.PI / 2], points: [[2.5, 3.5]] });
+        r.layers.places = false;
+        r.draw();
+        const ctx = canvas.getContext('2d');
+        const rgb = (x, y) => [...ctx.getImageData(Math.round(x), Math.round(y), 1, 1).data].slice(0, 3);
+        // does any pixel within 2 px of (x, y) have colour c (+-40 per channel, for anti-aliasing)?
+        const near = (x, y, c) => {
+            for (let dx = -2; dx <= 2; dx++) for (let dy = -2; dy <= 2; dy++) {
+                const p = rgb(x + dx, y + dy);
+                if (p.every((v, k) => Math.abs(v - c[k]) <= 40)) return true;
+            }
+            return false;
+        };
+        const [cx, cy] = r.view.worldToScreen(1, 2);
+        const a = Math.sqrt(5.991 * 0.09) * 100, b = Math.sqrt(5.991 * 0.01) * 100;
+        const [violet, white] = [[124, 58, 237], [255, 255, 255]];
+        const [teal, red] = [[15, 118, 110], [220, 38, 38]];
+        const [rx, ry] = r.view.worldToScreen(0, 2);
+        const rr = ROBOT_RADIUS_M * 100;
+        const [px, py] = r.view.worldToScreen(2.5, 3.5);
+        return {
+            majorEnd: near(cx + a, cy, violet), minorEnd: near(cx, cy - b, violet),
+            notTall: near(cx, cy - a, violet),
+            tipUp: near(rx, ry - 0.7 * rr, white), notTipDown: rgb(rx, ry + 0.7 * rr),
+            tealDown: near(rx, ry + 0.7 * rr, teal), scanPoint: near(px, py, red),
+        };
+    """)
+    assert out["majorEnd"] and out["minorEnd"] and not out["notTall"]
+    assert out["tipUp"] and out["tealDown"]
+    assert out["notTipDown"] != [255, 255, 255]
+    assert out["scanPoint"]
