@@ -18,7 +18,7 @@ import numpy as np
 from app.core.config import Settings
 from app.db.store import Store
 from app.navigation.navigator import Navigator
-from app.robot.simulator import SimHandles, start_simulator
+from app.robot.simulator import SimHandles, start_simulator, wait_ready
 from app.streaming import map_frames
 from app.streaming.hub import Hub
 from app.worker.shared_map import MapSnapshot
@@ -29,6 +29,8 @@ from slam_core.sim.world import load_world
 log = logging.getLogger(__name__)
 
 EVENTS_KEPT = 50
+#: The simulated robot's serial device, a symlink to its pty in the data dir.
+SIM_SERIAL_LINK = "robot.tty"
 SCAN_DECIMALS = 2
 POSE_DECIMALS = 4
 
@@ -69,14 +71,18 @@ class Runtime:
         self._loop = asyncio.get_running_loop()
         s = self.settings
         start = (0.0, 0.0, 0.0)
+        ready = None
         if s.simulation:
-            self.sim = await asyncio.to_thread(start_simulator, s.world, s.seed)
+            # The worker starts beside the simulator; its grabber opens the pty link once it exists.
+            self.sim, ready = start_simulator(s.world, s.seed, s.data_dir / SIM_SERIAL_LINK)
             port, slot = self.sim.port, self.sim.scans
             start = load_world(s.world).start  # map frame = world frame in simulation
         else:
             port, slot = s.serial_port, None
         self.supervisor = WorkerSupervisor(s, port, slot, self._from_relay, start)
         self.supervisor.start()
+        if ready is not None:
+            await asyncio.to_thread(wait_ready, self.sim, ready)
         for coro in (self._stream_ticker(), self._map_pump(), self._status_ticker(), self.navigator.run()):
             self._tasks.append(asyncio.create_task(coro))
 

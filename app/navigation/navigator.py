@@ -121,7 +121,8 @@ class Navigator:
             return
         # The planner may snap a goal inside an obstacle to a free cell: arrive at the path's end.
         tx, ty = self.path[-1] if len(self.path) else (self.goal.x, self.goal.y)
-        if math.hypot(pose[0] - tx, pose[1] - ty) <= self.settings.goal_tolerance:
+        near = math.hypot(pose[0] - tx, pose[1] - ty) <= self.settings.goal_tolerance
+        if near or self._follower.done:
             self._send(0.0, 0.0)
             self.state, self._follower = "arrived", None
             return

@@ -13,6 +13,8 @@ import multiprocessing as mp
 import signal
 import time
 from dataclasses import dataclass
+from multiprocessing.connection import Connection
+from pathlib import Path
 
 import numpy as np
 
@@ -47,35 +49,38 @@ class SimHandles:
             self.process.join(timeout)
 
 
-def start_simulator(world: str, seed: int, ctx=None) -> SimHandles:
-    """Start the simulator process and wait until its serial device exists."""
+def start_simulator(world: str, seed: int, link: Path, ctx=None) -> tuple[SimHandles, Connection]:
+    """Start the simulator process; its serial device will appear at ``link`` (see :func:`wait_ready`)."""
     ctx = ctx or mp.get_context("spawn")
     scans = ScanSlot.create(ctx)
     truth = ctx.Array("d", 4)
     stop = ctx.Event()
     parent, child = ctx.Pipe(duplex=False)
-    proc = ctx.Process(target=run_simulator, args=(world, seed, scans, truth, stop, child),
+    proc = ctx.Process(target=run_simulator, args=(world, seed, str(link), scans, truth, stop, child),
                        name="homebot-sim", daemon=True)
     proc.start()
     child.close()
-    if not parent.poll(STARTUP_TIMEOUT):
-        proc.terminate()
+    return SimHandles(proc, str(link), scans, truth, stop), parent
+
+
+def wait_ready(handles: SimHandles, ready: Connection) -> None:
+    """Block until the simulator runs; raise its start-up error if it failed."""
+    if not ready.poll(STARTUP_TIMEOUT):
+        handles.process.terminate()
         raise RuntimeError("the simulator did not start")
-    message = parent.recv()
+    message = ready.recv()
     if isinstance(message, Exception):
-        proc.join(5)
+        handles.process.join(5)
         raise message
-    return SimHandles(proc, message, scans, truth, stop)
 
 
-def run_simulator(world_name: str, seed: int, scans: ScanSlot, truth, stop, ready) -> None:
+def run_simulator(world_name: str, seed: int, link: str, scans: ScanSlot, truth, stop, ready) -> None:
     """The simulator process: step physics in real time, scan, serve the MCU pty."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the server stops us through ``stop``
+    from app.robot_link.virtual_mcu import VirtualMCU
     from slam_core.sim.lidar import Lidar
     from slam_core.sim.robot import SimRobot
     from slam_core.sim.world import load_world
-
-    from app.robot_link.virtual_mcu import VirtualMCU
 
     try:
         world = load_world(world_name)
@@ -83,7 +88,7 @@ def run_simulator(world_name: str, seed: int, scans: ScanSlot, truth, stop, read
         robot = SimRobot(world, rng=np.random.default_rng(seed + 1))
         lidar = Lidar(world)
         lidar.scan(robot.true_pose, rng)  # compile the ray caster before reporting ready
-        mcu = VirtualMCU(robot, command_timeout=COMMAND_TIMEOUT).start()
+        mcu = VirtualMCU(robot, command_timeout=COMMAND_TIMEOUT, link=link).start()
     except Exception as exc:  # reported to the parent, which raises it
         ready.send(RuntimeError(f"simulator failed to start: {exc}"))
         return
