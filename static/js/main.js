@@ -12,6 +12,7 @@ import { StatusBar } from "./statusbar.js";
 import { Teleop } from "./teleop.js";
 
 const TOAST_MS = 3500;
+const FIT_MARGIN_PX = 16;
 const STATUS_POLL_MS = 5000; // the stream sends status at 1 Hz; this covers a stalled stream
 const HINTS = {
   goal: "",
@@ -279,7 +280,9 @@ class Dashboard {
 
   fitMap() {
     const bounds = this.state.map.knownBounds();
-    if (bounds) this.view.fit(...bounds);
+    const toolbar = $("tools").getBoundingClientRect();
+    const canvasTop = this.canvas.getBoundingClientRect().top;
+    if (bounds) this.view.fit(...bounds, FIT_MARGIN_PX, toolbar.bottom - canvasTop);
     else if (this.state.pose) this.view.centerOn(this.state.pose.x, this.state.pose.y);
     this.renderer.invalidate();
   }

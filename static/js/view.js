@@ -62,14 +62,16 @@ export class View {
     this.cy = y;
   }
 
-  // Fit the world rectangle [x0, x1] x [y0, y1] into the canvas with a margin in pixels.
-  fit(x0, y0, x1, y1, margin = 20) {
+  // Fit the world rectangle [x0, x1] x [y0, y1] into the canvas with a margin in pixels, leaving `top`
+  // pixels free above it (for the toolbar drawn over the map).
+  fit(x0, y0, x1, y1, margin = 20, top = 0) {
     const w = Math.max(x1 - x0, 1e-6);
     const h = Math.max(y1 - y0, 1e-6);
     const sx = (this.width - 2 * margin) / w;
-    const sy = (this.height - 2 * margin) / h;
+    const sy = (this.height - 2 * margin - top) / h;
     this.scale = Math.min(MAX_SCALE, Math.max(MIN_SCALE, Math.min(sx, sy)));
     this.centerOn((x0 + x1) / 2, (y0 + y1) / 2);
+    this.panBy(0, top / 2);
   }
 
   // The world rectangle visible on the canvas, [x0, y0, x1, y1].

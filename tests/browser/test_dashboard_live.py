@@ -226,13 +226,30 @@ def test_cancel_then_keyboard_and_pad_teleop_move_the_robot(dashboard, homebot_s
     page.wait_for_function("window.homebot.teleop.timer === null")  # released: one stop was sent
 
 
-def test_screenshot_of_the_dashboard(dashboard, artifacts):
+def test_places_and_a_screenshot_of_the_dashboard_driving(dashboard, homebot_server, artifacts):
+    """A named place added from the sidebar, then a goal on the whole (fitted) map: the screenshot
+    shows the map, the robot, its path, the scan, the place and the status bar."""
     page = dashboard
+    page.fill("#place-name", "dock")
+    page.click("#place-form button[type=submit]")
+    page.wait_for_selector("li.place[data-name=dock]")
+    served = {p["name"]: p for p in homebot_server.api("GET", "places").json()}
+    robot = pose(page)
+    assert served["dock"]["x"] == pytest.approx(robot["x"], abs=0.3)
+
     page.click("#fit")
-    page.wait_for_timeout(500)
+    page.wait_for_timeout(300)
+    goal = page.evaluate(PICK_GOAL_JS, [GOAL_MIN_M, 4.0, CLEARANCE_M])
+    assert goal is not None
+    ox, oy = canvas_origin(page)
+    page.mouse.click(ox + goal["sx"], oy + goal["sy"])
+    page.wait_for_function("window.homebot.state.path.path.length >= 2 || window.homebot.state.lastError",
+                           timeout=PLAN_TIMEOUT_MS)
+    page.wait_for_timeout(1500)
     path = artifacts / "dashboard.png"
     page.screenshot(path=str(path))
     assert path.stat().st_size > 20_000
+    page.click("#cancel-goal")
     assert page.js_errors == []
 
 

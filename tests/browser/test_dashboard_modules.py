@@ -98,12 +98,18 @@ def test_zoom_is_clamped_and_fit_shows_the_rectangle(modules):
         v.zoomAt(0, 0, 1e9); const hi = v.scale;
         v.zoomAt(0, 0, 1e-9); const lo = v.scale;
         v.fit(-5, -2, 15, 8, 20);
-        return { hi, lo, MIN_SCALE, MAX_SCALE, vis: v.visibleWorld() };
+        const vis = v.visibleWorld();
+        v.fit(-5, -2, 15, 8, 20, 100);   // 100 px kept free at the top
+        const [, top] = v.worldToScreen(0, 8);
+        const [, bottom] = v.worldToScreen(0, -2);
+        return { hi, lo, MIN_SCALE, MAX_SCALE, vis, top, bottom, scale: v.scale };
     """)
     assert out["hi"] == out["MAX_SCALE"] and out["lo"] == out["MIN_SCALE"]
     x0, y0, x1, y1 = out["vis"]
     assert x0 <= -5 and x1 >= 15 and y0 <= -2 and y1 >= 8
     assert (x1 - x0) == pytest.approx(20 * 400 / 360)  # the width limits: (400 - 2*20) px for 20 m
+    assert out["scale"] == pytest.approx((300 - 40 - 100) / 10)  # now the height limits
+    assert out["top"] == pytest.approx(120) and out["bottom"] == pytest.approx(280)
 
 
 @pytest.mark.parametrize("compress", [False, True])
