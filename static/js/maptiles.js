@@ -1,6 +1,7 @@
 // The map as the browser keeps it: one offscreen canvas per 64x64-cell tile, filled from decoded map
-// frames (mapframe.js). A FULL frame replaces every tile; a delta repaints only the tiles it carries.
-// Tiles are drawn in world coordinates (view.matrix), so zoom and pan cost no re-decoding.
+// frames (mapframe.js), and blitted into one offscreen image of the whole map. A FULL frame replaces
+// every tile; a delta repaints only the tiles it carries. The map image is drawn in world coordinates
+// (view.matrix) with one drawImage, so pan, zoom and the 15 Hz redraws cost no re-decoding.
 
 import { UNKNOWN } from "./mapframe.js";
 
@@ -24,21 +25,25 @@ function buildPalette() {
 export const PALETTE = buildPalette();
 export const UNKNOWN_COLOR = UNKNOWN_RGBA;
 
-function makeCanvas(size) {
-  if (typeof OffscreenCanvas !== "undefined") return new OffscreenCanvas(size, size);
+function makeCanvas(width, height) {
+  if (typeof OffscreenCanvas !== "undefined") return new OffscreenCanvas(width, height);
   const canvas = document.createElement("canvas");
-  canvas.width = size;
-  canvas.height = size;
+  canvas.width = width;
+  canvas.height = height;
   return canvas;
 }
 
+const UNKNOWN_CSS = `rgb(${UNKNOWN_RGBA.slice(0, 3).join(",")})`;
+
 export class MapTiles {
   constructor() {
+    this.image = null; // the whole map, tilesX*T x tilesY*T pixels, row 0 = smallest y
     this.clear();
   }
 
   clear() {
-    this.tiles = new Map(); // tile index -> {tx, ty, canvas, known}
+    this.tiles = new Map(); // tile index -> {tx, ty, canvas, cells, known, box}; only tiles with known cells
+    this.spare = []; // canvases of dropped tiles, for re-use
     this.meta = null; // {tileSize, resolution, originX, originY, width, height, tilesX, tilesY, seq}
     this.version = 0; // bumps on every applied frame (the renderer redraws when it changes)
   }
@@ -50,6 +55,8 @@ export class MapTiles {
   // Apply a decoded frame; returns false for a delta that does not fit the current map (dropped).
   apply(frame) {
     if (frame.full) {
+      // Canvases of the old tiles are re-used for the new ones (a full frame follows every growth).
+      for (const t of this.tiles.values()) if (t.canvas.width === frame.tileSize) this.spare.push(t.canvas);
       this.tiles = new Map();
       this.meta = {
         tileSize: frame.tileSize,
@@ -62,6 +69,7 @@ export class MapTiles {
         tilesY: frame.tilesY,
         seq: frame.seq,
       };
+      this._resetImage();
     } else {
       const m = this.meta;
       const fits =
@@ -79,21 +87,21 @@ export class MapTiles {
     return true;
   }
 
+  _resetImage() {
+    const { tilesX, tilesY, tileSize } = this.meta;
+    const [w, h] = [tilesX * tileSize, tilesY * tileSize];
+    if (!this.image || this.image.width !== w || this.image.height !== h) this.image = makeCanvas(w, h);
+    const ctx = this.image.getContext("2d");
+    ctx.fillStyle = UNKNOWN_CSS;
+    ctx.fillRect(0, 0, w, h);
+  }
+
   _paint({ index, tx, ty, cells }) {
     const size = this.meta.tileSize;
-    let entry = this.tiles.get(index);
-    if (!entry) {
-      entry = { tx, ty, canvas: makeCanvas(size), cells: null, known: 0 };
-      this.tiles.set(index, entry);
-    }
-    const image = new ImageData(size, size);
-    const pixels = new Uint32Array(image.data.buffer);
     let known = 0;
     const box = [size, size, -1, -1]; // known cells' [ix0, iy0, ix1, iy1] inside the tile
     for (let i = 0; i < cells.length; i++) {
-      const value = cells[i];
-      pixels[i] = PALETTE[value];
-      if (value === UNKNOWN) continue;
+      if (cells[i] === UNKNOWN) continue;
       known++;
       const ix = i % size;
       const iy = (i - ix) / size;
@@ -102,9 +110,27 @@ export class MapTiles {
       if (ix > box[2]) box[2] = ix;
       if (iy > box[3]) box[3] = iy;
     }
-    entry.box = box;
+    const mapImage = this.image.getContext("2d");
+    let entry = this.tiles.get(index);
+    if (known === 0) {
+      // Nothing known: no tile canvas, the map image shows the unknown colour there.
+      if (entry) this.spare.push(entry.canvas);
+      this.tiles.delete(index);
+      mapImage.fillStyle = UNKNOWN_CSS;
+      mapImage.fillRect(tx * size, ty * size, size, size);
+      return;
+    }
+    if (!entry) {
+      entry = { tx, ty, canvas: this.spare.pop() ?? makeCanvas(size, size), cells: null, known: 0 };
+      this.tiles.set(index, entry);
+    }
+    const image = new ImageData(size, size);
+    const pixels = new Uint32Array(image.data.buffer);
+    for (let i = 0; i < cells.length; i++) pixels[i] = PALETTE[cells[i]];
     // Row 0 of the tile is its smallest y; the world transform (y up) puts image row 0 at the bottom.
     entry.canvas.getContext("2d").putImageData(image, 0, 0);
+    mapImage.putImageData(image, tx * size, ty * size);
+    entry.box = box;
     entry.known = known;
     entry.cells = Uint8Array.from(cells); // the frame's buffer is not kept
   }
@@ -152,22 +178,15 @@ export class MapTiles {
     return [m.originX + x0 * r, m.originY + y0 * r, m.originX + x1 * r, m.originY + y1 * r];
   }
 
-  // Draw every tile; ctx must carry the world transform (view.matrix). The map is clipped to W x H cells.
-  draw(ctx, pixelsPerMetre) {
+  // Draw the map (its W x H cells; the padding of edge tiles is cropped). ctx carries the world
+  // transform (view.matrix), so the image's row 0 lands at the map's smallest y.
+  draw(ctx) {
     const m = this.meta;
     if (!m) return;
-    const span = m.tileSize * m.resolution;
-    const seam = 0.6 / pixelsPerMetre; // overlap tiles by ~half a pixel: no hairline gaps between them
     ctx.save();
-    ctx.beginPath();
-    ctx.rect(m.originX, m.originY, m.width * m.resolution, m.height * m.resolution);
-    ctx.clip();
     ctx.imageSmoothingEnabled = false;
-    for (const t of this.tiles.values()) {
-      const x = m.originX + t.tx * span;
-      const y = m.originY + t.ty * span;
-      ctx.drawImage(t.canvas, x, y, span + seam, span + seam);
-    }
+    const r = m.resolution;
+    ctx.drawImage(this.image, 0, 0, m.width, m.height, m.originX, m.originY, m.width * r, m.height * r);
     ctx.restore();
   }
 }

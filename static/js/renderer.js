@@ -75,7 +75,7 @@ export class Renderer {
     ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
     this.drawGrid(); // under the map: it shows only where there is no map
     ctx.setTransform(...view.matrix(dpr));
-    state.map.draw(ctx, view.scale * dpr);
+    state.map.draw(ctx);
 
     ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
     const layers = this.layers;

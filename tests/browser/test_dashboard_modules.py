@@ -187,7 +187,7 @@ def test_map_tiles_draw_cells_where_they_are_in_the_world(modules):
         const draw = () => {
             ctx.setTransform(...view.matrix(1));
             ctx.clearRect(-100, -100, 200, 200);
-            tiles.draw(ctx, view.scale);
+            tiles.draw(ctx);
         };
         const cell = (ix, iy) => [-1 + (ix + .5) * .05, -2 + (iy + .5) * .05];  // cell centre in metres
         const [topLeft, bottomRight, topRight] = [cell(7, 92), cell(92, 7), cell(92, 92)];
