@@ -33,7 +33,11 @@ export class PointerControl {
   }
 
   down(e) {
-    this.canvas.setPointerCapture?.(e.pointerId);
+    try {
+      this.canvas.setPointerCapture(e.pointerId); // keep getting moves when the finger leaves the canvas
+    } catch {
+      // a pointer the browser no longer tracks: nothing to capture
+    }
     const [x, y] = this.local(e);
     this.pointers.set(e.pointerId, { x, y });
     if (this.pointers.size === 2) {

@@ -347,3 +347,47 @@ def test_renderer_draws_landmark_ellipses_robot_heading_and_scan_where_they_are(
     assert out["tipUp"] and out["tealDown"]
     assert out["notTipDown"] != [255, 255, 255]
     assert out["scanPoint"]
+
+
+def test_pointer_gestures_click_drag_pinch_and_wheel(modules):
+    """Pointer events as a finger or mouse sends them: a tap picks a point (no heading), a drag picks
+    a point and a heading, two fingers pinch-zoom about their midpoint, the wheel zooms about the cursor."""
+    out = run(modules, """
+        const { View } = await import('./view.js');
+        const { PointerControl } = await import('./pointer.js');
+        const canvas = document.createElement('canvas');
+        canvas.style.cssText = 'position:fixed;left:0;top:0;width:400px;height:300px';
+        document.body.appendChild(canvas);
+        const view = new View(400, 300); view.scale = 50;
+        const picks = [];
+        let tool = 'goal';
+        new PointerControl(canvas, view, { getTool: () => tool, onPick: (...a) => picks.push(a),
+                                           onPreview: () => {}, onViewChange: () => {} });
+        const ev = (type, id, x, y) => canvas.dispatchEvent(new PointerEvent(type, {
+            pointerId: id, clientX: x, clientY: y, pointerType: 'touch', isPrimary: id === 1, bubbles: true,
+        }));
+        ev('pointerdown', 1, 250, 150); ev('pointerup', 1, 252, 151);  // tap
+        ev('pointerdown', 1, 200, 150); ev('pointermove', 1, 200, 120); ev('pointerup', 1, 200, 100);  // up
+        tool = 'pose';
+        ev('pointerdown', 1, 200, 150); ev('pointermove', 1, 150, 150); ev('pointerup', 1, 140, 150);  // left
+        // pinch: fingers 100 px apart around (300, 100) move to 200 px apart
+        const before = view.screenToWorld(300, 100);
+        ev('pointerdown', 1, 250, 100); ev('pointerdown', 2, 350, 100);
+        ev('pointermove', 1, 200, 100); ev('pointermove', 2, 400, 100);
+        ev('pointerup', 1, 200, 100); ev('pointerup', 2, 400, 100);
+        const pinched = { scale: view.scale, after: view.screenToWorld(300, 100) };
+        const underCursor = view.screenToWorld(50, 250);
+        canvas.dispatchEvent(new WheelEvent('wheel',
+            { clientX: 50, clientY: 250, deltaY: -200, bubbles: true, cancelable: true }));
+        const wheeled = { scale: view.scale, at: view.screenToWorld(50, 250) };
+        return { picks, before, pinched, underCursor, wheeled, nPicksAfterPinch: picks.length };
+    """)
+    tap, drag, pose = out["picks"]
+    assert tap[0] == "goal" and tap[1:3] == pytest.approx([1.0, 0.0]) and tap[3] is None
+    assert drag[0] == "goal" and drag[1:3] == pytest.approx([0, 0]) and drag[3] == pytest.approx(math.pi / 2)
+    assert pose[0] == "pose" and pose[3] == pytest.approx(math.pi)
+    assert out["nPicksAfterPinch"] == 3, "a pinch picks nothing"
+    assert out["pinched"]["scale"] == pytest.approx(100)
+    assert out["pinched"]["after"] == pytest.approx(out["before"])
+    assert out["wheeled"]["scale"] > 100
+    assert out["wheeled"]["at"] == pytest.approx(out["underCursor"])
