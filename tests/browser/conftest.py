@@ -160,9 +160,10 @@ class HomebotServer:
                 self.process.wait()
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="module")
 def homebot_server(tmp_path_factory, artifacts):
-    """A real homebot server with its simulated robot, shared by the live dashboard tests."""
+    """A real homebot server with its simulated robot, for one module of live dashboard tests (it
+    stops when the module is done, so it does not load the machine during the rest of the suite)."""
     data = tmp_path_factory.mktemp("homebot-data")
     server = HomebotServer(data, artifacts / "homebot-serve.log")
     server.log_path.write_text("")
