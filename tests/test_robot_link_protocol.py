@@ -188,12 +188,12 @@ GARBAGE = st.one_of(
     st.binary(max_size=12),
     st.sampled_from([SYNC, SYNC[:1], SYNC + b"\x01\x0e", SYNC + b"\x81\x0a", SYNC + b"\x01\x3f"]),
 )
-FAULTS = st.sampled_from(["intact", "intact", "intact", "flip", "truncate"])
+FAULTS = st.sampled_from(["intact", "intact", "intact", "flip", "truncate", "repeat"])
 
 
 @st.composite
 def corrupted_streams(draw):
-    """Valid frames (plausible odometry), garbage between them, some frames flipped or truncated.
+    """Valid frames (plausible odometry), garbage between them, some frames flipped, truncated or repeated.
 
     Returns the stream, chunk boundaries, and the frames that reached the stream intact.
     """
@@ -220,6 +220,8 @@ def corrupted_streams(draw):
             del wire[draw(st.integers(1, len(wire) - 1)) :]
         else:
             intact.append(frame)
+            if fault == "repeat":  # sent twice: the copy is a duplicate to skip
+                wire += b"".join(draw(st.lists(GARBAGE, max_size=2))) + wire
         pieces.append(bytes(wire))
     stream = b"".join(pieces)
     cuts = sorted(draw(st.lists(st.integers(0, len(stream)), max_size=8)))
@@ -247,6 +249,7 @@ def test_decoder_recovers_every_intact_frame_from_a_corrupted_stream(case):
     s = decoder.stats
     assert s.bytes_in == len(stream) == s.bytes_in_frames + s.bytes_skipped + decoder.pending
     assert s.frames == len(intact)
+    assert s.rejected["out_of_order"] == 0  # only repeats: every stale frame is a duplicate
 
     # Odometry from the decoded frames is exactly odometry from the intact frames, step by step,
     # and no step is longer than the wheels' speed limit allows for the frame interval.
@@ -271,3 +274,12 @@ def test_decoder_never_raises_on_random_bytes(data, cuts):
     s = decoder.stats
     assert s.bytes_in == len(data) == s.bytes_in_frames + s.bytes_skipped + decoder.pending
     assert decoder.pending < 4 + MAX_PAYLOAD + 2
+
+
+def test_sequence_check_can_be_disabled_and_stats_snapshot_is_a_copy():
+    decoder = FrameDecoder(check_sequence=False)
+    frames = [EncoderFrame(s, 0, 0, 0) for s in (3, 3, 1)]
+    assert decoder.feed(b"".join(encode(f) for f in frames)) == frames
+    before = decoder.stats.snapshot()
+    decoder.feed(raw_frame(0x42, b""))
+    assert before.rejected["unknown_type"] == 0 and decoder.stats.rejected["unknown_type"] == 1

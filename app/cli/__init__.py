@@ -7,7 +7,7 @@ import importlib
 import sys
 
 #: Subcommand modules under ``app.cli``; each defines ``register(subparsers)``.
-COMMANDS = ("map", "eval", "sim", "serve")
+COMMANDS = ("map", "eval", "sim", "link", "serve")
 
 
 def build_parser() -> argparse.ArgumentParser:

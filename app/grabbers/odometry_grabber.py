@@ -39,6 +39,7 @@ DEFAULT_BAUDRATE = 115200
 DEFAULT_MAX_WHEEL_SPEED = 1.5
 READ_TIMEOUT = 0.05  # s; also bounds how long stop() waits
 RECONNECT_DELAY = 0.2  # s between attempts to reopen a vanished device
+WRITE_TIMEOUT = 0.1  # s; a command that cannot be written by then is dropped and counted
 
 
 @dataclass(frozen=True)
@@ -98,7 +99,8 @@ class OdometryGrabber:
         self._read_timeout = read_timeout
         self._reconnect_delay = reconnect_delay
         self._serial: serial.Serial | None = None
-        self._lock = threading.Lock()  # guards _serial, the command seq and the counters below
+        self._lock = threading.Lock()  # guards the decoder, the integrator and the counters
+        self._write_lock = threading.Lock()  # guards _serial and the command sequence number
         self._connected = threading.Event()
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
@@ -134,22 +136,21 @@ class OdometryGrabber:
     # -- commands --------------------------------------------------------------------------
     def send_velocity(self, v: float, w: float) -> bool:
         """Send body velocity ``v`` (m/s), ``w`` (rad/s) to the MCU; False if it could not be sent."""
-        with self._lock:
+        with self._write_lock:
             seq = self._command_seq
-            self._command_seq = (seq + 1) % SEQ_MODULUS
             frame = encode(VelocityCommand(seq, float(v), float(w)))  # ValueError if not finite
+            self._command_seq = (seq + 1) % SEQ_MODULUS
             port = self._serial
-            if port is None:
-                self._counts["commands_failed"] += 1
-                return False
-            try:
-                port.write(frame)
-            except (serial.SerialException, OSError) as exc:
-                log.warning("odometry grabber: velocity command to %s failed: %s", self.port, exc)
-                self._counts["commands_failed"] += 1
-                return False
-            self._counts["commands_sent"] += 1
-            return True
+            ok = False
+            if port is not None:
+                try:
+                    port.write(frame)
+                    ok = True
+                except (serial.SerialException, OSError) as exc:
+                    log.warning("odometry grabber: velocity command to %s failed: %s", self.port, exc)
+        with self._lock:
+            self._counts["commands_sent" if ok else "commands_failed"] += 1
+        return ok
 
     # -- counters --------------------------------------------------------------------------
     def stats(self) -> OdometryGrabberStats:
@@ -176,7 +177,9 @@ class OdometryGrabber:
     # -- the thread ------------------------------------------------------------------------
     def _open(self) -> serial.Serial | None:
         try:
-            return serial.Serial(self.port, self.baudrate, timeout=self._read_timeout)
+            return serial.Serial(
+                self.port, self.baudrate, timeout=self._read_timeout, write_timeout=WRITE_TIMEOUT
+            )
         except (serial.SerialException, OSError, ValueError) as exc:
             if not self._counts["open_failures"]:
                 log.warning("odometry grabber: cannot open %s (%s); retrying", self.port, exc)
@@ -191,9 +194,10 @@ class OdometryGrabber:
                 continue
             with self._lock:
                 self.decoder.reset()  # a new byte stream: no half frame, no sequence history
-                self._serial = port
                 self._counts["connects"] += 1
                 self._counts["open_failures"] = 0
+            with self._write_lock:
+                self._serial = port
             self._connected.set()
             log.info("odometry grabber: reading %s at %d baud", self.port, self.baudrate)
             try:
@@ -204,7 +208,7 @@ class OdometryGrabber:
                     self._counts["disconnects"] += 1
             finally:
                 self._connected.clear()
-                with self._lock:
+                with self._write_lock:
                     self._serial = None
                 port.close()
 

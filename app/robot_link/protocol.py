@@ -38,7 +38,7 @@ from __future__ import annotations
 import math
 import struct
 from collections import Counter
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 SYNC = b"\xaa\x55"
 HEADER_SIZE = 4  # SYNC, TYPE, LEN
@@ -186,15 +186,8 @@ class DecoderStats:
     stream_restarts: int = 0  # sender restarts detected from sequence numbers
 
     def snapshot(self) -> DecoderStats:
-        return DecoderStats(
-            self.frames,
-            Counter(self.rejected),
-            self.bytes_in,
-            self.bytes_in_frames,
-            self.bytes_skipped,
-            self.seq_gaps,
-            self.stream_restarts,
-        )
+        """A copy that later decoding does not change."""
+        return replace(self, rejected=Counter(self.rejected))
 
 
 class FrameDecoder:

@@ -14,6 +14,7 @@ reading) are dropped and counted. :class:`LineFaults` corrupts the outgoing byte
 from __future__ import annotations
 
 import contextlib
+import logging
 import os
 import select
 import threading
@@ -33,6 +34,8 @@ from app.robot_link.protocol import (
     encode,
     wrap_i32,
 )
+
+log = logging.getLogger(__name__)
 
 DEFAULT_RATE_HZ = 50.0
 READ_CHUNK = 4096
@@ -89,6 +92,8 @@ class VirtualMCUStats:
     bytes_sent: int = 0
     bytes_dropped: int = 0  # did not fit into the pty buffer
     commands_applied: int = 0
+    commands_refused: int = 0  # the wheel source raised on set_velocity
+    tick_errors: int = 0  # the wheel source raised on ticks(); no frame sent
     watchdog_stops: int = 0
 
 
@@ -204,7 +209,12 @@ class VirtualMCU:
         return written
 
     def _send_encoder_frame(self) -> None:
-        left, right = self.wheels.ticks()
+        try:
+            left, right = self.wheels.ticks()
+        except Exception as exc:  # a broken reading skips one frame, as a sensor glitch would
+            log.warning("virtual MCU: wheel source failed to give ticks: %s", exc)
+            self.stats.tick_errors += 1
+            return
         t_us = round(self._clock() * 1e6) % TIME_MODULUS
         frame = encode(EncoderFrame(self._seq, t_us, wrap_i32(left), wrap_i32(right)))
         self._seq = (self._seq + 1) % SEQ_MODULUS
@@ -212,6 +222,16 @@ class VirtualMCU:
             frame = self.faults.apply(frame)
         self._write(frame)
         self.stats.frames_sent += 1
+
+    def _apply(self, v: float, w: float) -> bool:
+        """Hand a command to the wheels; a wheel source that refuses it is logged, like firmware would."""
+        try:
+            self.wheels.set_velocity(v, w)
+        except Exception as exc:  # the MCU thread must survive whatever the wheel source does
+            log.warning("virtual MCU: wheel source refused velocity (%r, %r): %s", v, w, exc)
+            self.stats.commands_refused += 1
+            return False
+        return True
 
     def _run(self) -> None:
         next_send = time.monotonic()
@@ -230,14 +250,14 @@ class VirtualMCU:
                 except (BlockingIOError, OSError):
                     data = b""
                 for command in self.decoder.feed(data):
-                    self.wheels.set_velocity(command.v, command.w)
-                    self.stats.commands_applied += 1
+                    if self._apply(command.v, command.w):
+                        self.stats.commands_applied += 1
                     last_command = time.monotonic()
             if (
                 self.command_timeout is not None
                 and last_command is not None
                 and time.monotonic() - last_command > self.command_timeout
             ):
-                self.wheels.set_velocity(0.0, 0.0)
+                self._apply(0.0, 0.0)
                 self.stats.watchdog_stops += 1
                 last_command = None

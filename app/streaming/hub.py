@@ -69,7 +69,8 @@ class Client:
                             continue
                     binary = isinstance(frame, bytes)
                     send: Awaitable = ws.send_bytes(frame) if binary else ws.send_text(frame)
-                    await asyncio.wait_for(send, self.send_timeout)
+                    async with asyncio.timeout(self.send_timeout):
+                        await send
                     self.sent += 1
         except (TimeoutError, RuntimeError, OSError) as exc:
             log.info("websocket client dropped: %s", type(exc).__name__)

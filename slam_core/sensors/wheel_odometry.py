@@ -72,6 +72,8 @@ class OdometryIntegrator:
     def __init__(self, geometry: DiffDriveGeometry, max_wheel_speed: float, pose=(0.0, 0.0, 0.0)):
         if not max_wheel_speed > 0:
             raise ValueError(f"max_wheel_speed must be positive (m/s), got {max_wheel_speed!r}")
+        if not (geometry.wheel_radius > 0 and geometry.wheel_base > 0 and geometry.ticks_per_rev > 0):
+            raise ValueError(f"wheel radius, wheel base and ticks per rev must be positive: {geometry}")
         pose = np.asarray(pose, dtype=float)
         if pose.shape != (3,) or not np.all(np.isfinite(pose)):
             raise ValueError(f"initial pose must be three finite numbers (x, y, theta), got {pose!r}")

@@ -1,0 +1,94 @@
+"""Coarse alignment of a scan to one map by exhaustive (correlative) search.
+
+Olson's real-time correlative scan matching (ICRA 2009), in its simplest form:
+the map around the predicted pose is turned into a likelihood field (each cell
+holds ``exp(-d^2 / (2 sigma^2))`` for the distance ``d`` to the nearest occupied
+cell, truncated), and every pose of a window of rotations x translations is
+scored by summing the field at the beam endpoints, times a Gaussian prior on
+the distance from the prediction. The filter uses the best particle's map to
+find the odometry's error once per update; every particle's own fine match
+then starts from its prediction corrected by that error, which widens the
+capture range of the fine matcher far beyond its 3 x 3 kernel.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from slam_core.jit import njit
+from slam_core.rbpf.scan_matcher import _logodds_at
+
+
+@njit
+def likelihood_window(table, lo, origin_x, origin_y, resolution, cx, cy, half_cells,
+                      occupied_lo, sigma, reach_cells):
+    """Likelihood field of a square window of ``2 * half_cells`` cells centred at cell ``(cx, cy)``."""
+    size = 2 * half_cells
+    field = np.zeros((size, size), np.float32)
+    x0 = cx - half_cells
+    y0 = cy - half_cells
+    k = reach_cells
+    kernel = np.empty((2 * k + 1, 2 * k + 1), np.float32)
+    for dy in range(-k, k + 1):
+        for dx in range(-k, k + 1):
+            d2 = (dx * dx + dy * dy) * resolution * resolution
+            kernel[dy + k, dx + k] = np.exp(-d2 / (2.0 * sigma * sigma))
+    for j in range(size):
+        for i in range(size):
+            if _logodds_at(table, lo, x0 + i, y0 + j) <= occupied_lo:
+                continue
+            for dy in range(-k, k + 1):
+                yy = j + dy
+                if yy < 0 or yy >= size:
+                    continue
+                for dx in range(-k, k + 1):
+                    xx = i + dx
+                    if xx < 0 or xx >= size:
+                        continue
+                    v = kernel[dy + k, dx + k]
+                    if v > field[yy, xx]:
+                        field[yy, xx] = v
+    return field
+
+
+@njit
+def search(field, resolution, window_x, window_y, px, py, pth, points, angular_half, angular_step,
+           linear_cells, sigma_xy, sigma_th):
+    """Best pose ``(x, y, th, score)`` in the window around ``(px, py, pth)``.
+
+    ``field`` covers world cells starting at ``(window_x, window_y)`` (its lower-left
+    corner in metres); ``points`` are beam endpoints ``(n, 2)`` in the robot frame.
+    """
+    n_rot = int(np.floor(angular_half / angular_step + 0.5))
+    size_y, size_x = field.shape
+    best = -1.0
+    bx, by, bth = px, py, pth
+    cells_x = np.empty(points.shape[0], np.int64)
+    cells_y = np.empty(points.shape[0], np.int64)
+    inv = 1.0 / resolution
+    for r in range(-n_rot, n_rot + 1):
+        th = pth + r * angular_step
+        c = np.cos(th)
+        s = np.sin(th)
+        for b in range(points.shape[0]):
+            ex = px + c * points[b, 0] - s * points[b, 1]
+            ey = py + s * points[b, 0] + c * points[b, 1]
+            cells_x[b] = int(np.floor((ex - window_x) * inv))
+            cells_y[b] = int(np.floor((ey - window_y) * inv))
+        prior_th = (r * angular_step) ** 2 / (sigma_th * sigma_th)
+        for dy in range(-linear_cells, linear_cells + 1):
+            for dx in range(-linear_cells, linear_cells + 1):
+                total = 0.0
+                for b in range(points.shape[0]):
+                    xx = cells_x[b] + dx
+                    yy = cells_y[b] + dy
+                    if 0 <= xx < size_x and 0 <= yy < size_y:
+                        total += field[yy, xx]
+                d2 = (dx * dx + dy * dy) * resolution * resolution
+                total *= np.exp(-0.5 * (d2 / (sigma_xy * sigma_xy) + prior_th))
+                if total > best:
+                    best = total
+                    bx = px + dx * resolution
+                    by = py + dy * resolution
+                    bth = th
+    return bx, by, bth, best

@@ -1,0 +1,215 @@
+"""Rao-Blackwellized particle filter SLAM with the improved proposal (GMapping-class).
+
+The joint posterior factors as ``p(x_1:t, m | z_1:t, u_1:t-1) =
+p(m | x_1:t, z_1:t) p(x_1:t | z_1:t, u_1:t-1)``: particles sample trajectories,
+and each carries the map that its trajectory implies. One update:
+
+1. draw every particle's pose from the improved proposal and weight it
+   (:mod:`slam_core.rbpf.proposal`);
+2. if ``N_eff`` fell below the threshold, resample (low variance); copies share
+   their map tiles and their trajectory history;
+3. integrate the scan into every particle's map at its new pose.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from slam_core.estimator import Estimate
+from slam_core.geometry import compose, mean_pose, relative, wrap_angle
+from slam_core.motion_model import decompose
+from slam_core.occupancy_grid import OccupancyGrid
+from slam_core.rbpf.config import RBPFConfig
+from slam_core.rbpf.correlative import likelihood_window, search
+from slam_core.rbpf.proposal import MIN_VARIANCE, improved_proposal
+from slam_core.rbpf.scan_matcher import hill_climb
+from slam_core.rbpf.tiled_map import TiledMaps
+from slam_core.rbpf.trajectory_tree import ROOT, TrajectoryTree
+from slam_core.resampling import effective_sample_size, low_variance_resample, normalized
+from slam_core.scan import Scan
+
+
+@dataclass
+class RBPFStats:
+    """What the filter did so far."""
+
+    scans: int = 0
+    updates: int = 0
+    resamplings: int = 0
+    matched: int = 0
+    fallbacks: int = 0
+    last_neff: float = 0.0
+
+    def as_dict(self) -> dict:
+        return dict(self.__dict__)
+
+
+class RBPFSlam:
+    """The incremental filter: feed ``step(odometry, scan)``; read ``estimate()`` and maps."""
+
+    def __init__(self, config: RBPFConfig | None = None, seed: int = 0, initial_pose=(0.0, 0.0, 0.0)):
+        self.config = config or RBPFConfig()
+        n = self.config.particles
+        if n < 1:
+            raise ValueError("need at least one particle")
+        self.rng = np.random.default_rng(seed)
+        self.maps = TiledMaps(n, self.config.resolution, self.config.sensor)
+        self.poses = np.tile(np.asarray(initial_pose, dtype=float), (n, 1))
+        self.log_weights = np.zeros(n)
+        self.path_scores = np.zeros(n)
+        self.tree = TrajectoryTree()
+        self.nodes = np.full(n, ROOT, np.int64)
+        self.stats = RBPFStats()
+        self.update_odometry: list[np.ndarray] = []
+        self._last_odom: np.ndarray | None = None
+        self._params = self.config.matcher.packed()
+
+    # -- the estimator interface --------------------------------------------------
+
+    def step(self, odometry, scan: Scan) -> bool:
+        """Process one odometry pose with its scan; True when the filter updated."""
+        odometry = np.asarray(odometry, dtype=float)
+        self.stats.scans += 1
+        if self._last_odom is None:
+            self._first_update(odometry, scan)
+            return True
+        moved = relative(self._last_odom, odometry)
+        c = self.config
+        if np.hypot(moved[0], moved[1]) < c.linear_update and abs(moved[2]) < c.angular_update:
+            return False
+        self._update(self._last_odom, odometry, scan)
+        return True
+
+    def estimate(self) -> Estimate:
+        """Weighted mean pose (circular mean heading) with the particle cloud."""
+        w = normalized(self.log_weights)
+        mean = mean_pose(self.poses, w)
+        d = self.poses - mean
+        d[:, 2] = wrap_angle(d[:, 2])
+        cov = (d * w[:, None]).T @ d
+        return Estimate(pose=mean, covariance=cov, particles=self.poses.copy(), weights=w,
+                        localized=True)
+
+    def occupancy_map(self) -> OccupancyGrid:
+        """The best particle's map."""
+        return self.maps.to_grid(self.best_index())
+
+    # -- results --------------------------------------------------------------------
+
+    def best_index(self) -> int:
+        """The particle whose whole trajectory has the highest importance weight."""
+        return int(np.argmax(self.path_scores))
+
+    def best_path(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(update indices, poses)`` of the best particle's trajectory at every update."""
+        return self.tree.path(int(self.nodes[self.best_index()]))
+
+    def map_bytes(self) -> int:
+        return self.maps.nbytes()
+
+    # -- the filter -------------------------------------------------------------------
+
+    def _first_update(self, odometry: np.ndarray, scan: Scan) -> None:
+        self.maps.integrate(self.poses, scan)
+        self.maps.resample(np.zeros(self.config.particles, np.int64))  # one shared map
+        self._finish_update(odometry)
+
+    def _update(self, odom0: np.ndarray, odom1: np.ndarray, scan: Scan) -> None:
+        c = self.config
+        m = c.matcher
+        n = c.particles
+        beams = self._matching_beams(scan, m.max_range, m.max_beams)
+        motion = np.array(decompose(*odom0, *odom1))
+        predicted = compose(self.poses, relative(odom0, odom1))
+        starts = compose(predicted, self._odometry_error(predicted, motion, scan, beams))
+        noise = self.rng.standard_normal((n, 3))
+        new_poses = np.empty((n, 3))
+        log_eta = np.empty(n)
+        matched = np.empty(n, np.bool_)
+        search = np.array([m.linear_step, m.angular_step, m.refinements, m.sample_linear,
+                           m.sample_angular, m.min_matched * len(beams)])
+        improved_proposal(self.maps.tables, self.maps.lo, self.maps.hits, self.maps.origin[0],
+                          self.maps.origin[1], self.maps.resolution, self.poses, starts, motion,
+                          c.motion.alphas, beams, self._params, search, MIN_VARIANCE, noise,
+                          new_poses, log_eta, matched)
+        self.poses = new_poses
+        log_eta = log_eta / m.gain
+        self.log_weights = self.log_weights + log_eta
+        self.log_weights -= self.log_weights.max()
+        self.path_scores = self.path_scores + log_eta
+        self.path_scores -= self.path_scores.max()
+        self.stats.matched += int(matched.sum())
+        self.stats.fallbacks += int((~matched).sum())
+        neff = effective_sample_size(normalized(self.log_weights))
+        self.stats.last_neff = neff
+        if neff < c.resample_threshold * n:
+            self._resample()
+        self.maps.integrate(self.poses, scan)
+        self._finish_update(odom1)
+
+    def _resample(self) -> None:
+        idx = low_variance_resample(normalized(self.log_weights), self.rng)
+        self.maps.resample(idx)
+        self.poses = self.poses[idx]
+        self.nodes = self.nodes[idx]
+        self.path_scores = self.path_scores[idx]
+        self.log_weights = np.zeros(len(idx))
+        self.stats.resamplings += 1
+
+    def _finish_update(self, odometry: np.ndarray) -> None:
+        self.nodes = self.tree.add(self.nodes, self.stats.updates, self.poses)
+        self.update_odometry.append(odometry.copy())
+        self._last_odom = odometry.copy()
+        self.stats.updates += 1
+
+    def _odometry_error(self, predicted: np.ndarray, motion: np.ndarray, scan: Scan,
+                        beams: np.ndarray) -> np.ndarray:
+        """The odometry's error (robot frame), found on the leading particle's map.
+
+        The coarse search's window widens with the odometry's rotation (its
+        worst errors come with fast turns). The leading particle is then matched
+        finely from both the prediction and the coarse result; the better match
+        defines the error applied to every particle's prediction.
+        """
+        m = self.config.matcher
+        maps = self.maps
+        lead = int(np.argmax(self.log_weights))
+        pred = predicted[lead]
+        table = maps.tables[lead]
+        res = maps.resolution
+        fine = (table, maps.lo, maps.hits, maps.origin[0], maps.origin[1], res)
+        climb = (beams, self._params, m.linear_step, m.angular_step, m.refinements)
+        starts = [pred]
+        points = self._matching_beams(scan, m.coarse_range, m.coarse_beams)[:, :2]
+        if len(points):
+            turn = abs(motion[0]) + abs(motion[2])
+            angular = m.coarse_angular + 0.5 * turn
+            linear_cells = m.coarse_linear_cells + int(0.25 * abs(motion[1]) / res)
+            half = int(np.ceil(m.coarse_range / res)) + linear_cells + m.coarse_reach_cells
+            cx, cy = np.floor((pred[:2] - maps.origin) / res).astype(int)
+            field = likelihood_window(table, maps.lo, maps.origin[0], maps.origin[1], res, cx, cy, half,
+                                      self._params[3], m.coarse_sigma, m.coarse_reach_cells)
+            wx, wy = maps.origin + (np.array([cx, cy]) - half) * res
+            x, y, th, _ = search(field, res, wx, wy, pred[0], pred[1], pred[2], points, angular,
+                                 m.coarse_angular_step, linear_cells, m.coarse_prior_linear,
+                                 m.coarse_prior_angular + 0.5 * turn)
+            starts.append(np.array([x, y, th]))
+        best_pose, best_score = pred, -1.0
+        for start in starts:
+            x, y, th, score = hill_climb(*fine, start[0], start[1], start[2], *climb)
+            if score > best_score:
+                best_pose, best_score = np.array([x, y, th]), score
+        return relative(pred, best_pose)
+
+    def _matching_beams(self, scan: Scan, max_range: float, max_beams: int) -> np.ndarray:
+        """Rows ``(px, py, ux, uy)`` of up to ``max_beams`` evenly spread echoes."""
+        r = scan.ranges
+        use = scan.valid & (r <= min(max_range, self.config.sensor.usable_range))
+        idx = np.flatnonzero(use)
+        if len(idx) > max_beams:
+            idx = idx[np.linspace(0, len(idx) - 1, max_beams).round().astype(int)]
+        a = scan.angles[idx]
+        ux, uy = np.cos(a), np.sin(a)
+        return np.ascontiguousarray(np.column_stack([r[idx] * ux, r[idx] * uy, ux, uy]))

@@ -1,0 +1,295 @@
+"""Particle maps that share storage: copy-on-write tiles (the "compact map model").
+
+Every particle map is a table of tile indices over one common tile lattice;
+the tiles themselves live in one pool with reference counts. Resampling copies
+tables, not cells: a copy of a particle shares all its tiles. A particle that
+then writes a shared tile first gets its own copy of just that tile, so memory
+grows with what the particles disagree on, not with the particle count.
+
+Each cell holds the occupancy in log-odds (see :mod:`slam_core.raycast`) and
+the running sum and count of the beam endpoints that fell into it: the mean
+endpoint locates the surface inside the cell, which the scan matcher uses for
+sub-cell accuracy (as GMapping's point accumulators do).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import prange
+
+from slam_core.jit import njit
+from slam_core.occupancy_grid import OccupancyGrid, SensorModel
+from slam_core.raycast import beam_endpoint, ray_buffer_size, trace_ray
+
+TILE_BITS = 5
+TILE = 1 << TILE_BITS
+#: Empty tiles added around the lattice whenever it grows.
+GROW_MARGIN_TILES = 4
+#: Hit sums: x, y (metres from the cell's lower-left corner) and count.
+HIT_X, HIT_Y, HIT_N = 0, 1, 2
+
+
+@njit
+def cell_logodds(table, lo, ix, iy):
+    """Log-odds of cell ``(ix, iy)`` in the map ``table`` (0 when never seen)."""
+    if ix < 0 or iy < 0:
+        return 0.0
+    ty = iy >> TILE_BITS
+    tx = ix >> TILE_BITS
+    if ty >= table.shape[0] or tx >= table.shape[1]:
+        return 0.0
+    t = table[ty, tx]
+    if t < 0:
+        return 0.0
+    return lo[t, iy & (TILE - 1), ix & (TILE - 1)]
+
+
+@njit
+def _mark_touched(tables, origin_x, origin_y, resolution, poses, angles, ranges, range_min,
+                  range_max, usable_range, no_return_range, marks):
+    """Mark, per map, the tiles a scan from that map's pose will write."""
+    tile_size = resolution * TILE
+    buf = np.empty((ray_buffer_size(usable_range, tile_size) + 4, 2), dtype=np.int64)
+    n_ty, n_tx = tables.shape[1], tables.shape[2]
+    for p in range(poses.shape[0]):
+        gx0 = (poses[p, 0] - origin_x) / tile_size
+        gy0 = (poses[p, 1] - origin_y) / tile_size
+        for b in range(angles.shape[0]):
+            use, _hit, ex, ey = beam_endpoint(poses[p, 0], poses[p, 1], poses[p, 2], angles[b],
+                                              ranges[b], range_min, range_max, usable_range,
+                                              no_return_range)
+            if not use:
+                continue
+            n = trace_ray(gx0, gy0, (ex - origin_x) / tile_size, (ey - origin_y) / tile_size, buf)
+            for k in range(n):
+                tx = buf[k, 0]
+                ty = buf[k, 1]
+                if 0 <= tx < n_tx and 0 <= ty < n_ty:
+                    marks[p, ty, tx] = True
+
+
+@njit
+def _make_exclusive(tables, marks, refs, free_stack, free_top, lo, hits):
+    """Give every marked tile of every map a private copy (or a new empty tile).
+
+    Returns the number of tiles taken from the free stack.
+    """
+    taken = 0
+    for p in range(tables.shape[0]):
+        for ty in range(tables.shape[1]):
+            for tx in range(tables.shape[2]):
+                if not marks[p, ty, tx]:
+                    continue
+                t = tables[p, ty, tx]
+                if t >= 0 and refs[t] == 1:
+                    continue
+                free_top[0] -= 1
+                new = free_stack[free_top[0]]
+                taken += 1
+                if t < 0:
+                    lo[new] = 0.0
+                    hits[new] = 0.0
+                else:
+                    lo[new] = lo[t]
+                    hits[new] = hits[t]
+                    refs[t] -= 1
+                refs[new] = 1
+                tables[p, ty, tx] = new
+    return taken
+
+
+@njit(parallel=True)
+def _integrate(tables, refs, lo, hits, origin_x, origin_y, resolution, poses, angles, ranges,
+               range_min, range_max, usable_range, no_return_range, l_free, l_occ, l_min, l_max):
+    """Integrate one scan into every map at that map's pose (maps in parallel)."""
+    inv = 1.0 / resolution
+    n_ty, n_tx = tables.shape[1], tables.shape[2]
+    for p in prange(poses.shape[0]):
+        buf = np.empty((ray_buffer_size(usable_range, resolution), 2), dtype=np.int64)
+        gx0 = (poses[p, 0] - origin_x) * inv
+        gy0 = (poses[p, 1] - origin_y) * inv
+        for b in range(angles.shape[0]):
+            use, hit, ex, ey = beam_endpoint(poses[p, 0], poses[p, 1], poses[p, 2], angles[b],
+                                             ranges[b], range_min, range_max, usable_range,
+                                             no_return_range)
+            if not use:
+                continue
+            n = trace_ray(gx0, gy0, (ex - origin_x) * inv, (ey - origin_y) * inv, buf)
+            for k in range(n):
+                ix = buf[k, 0]
+                iy = buf[k, 1]
+                ty = iy >> TILE_BITS
+                tx = ix >> TILE_BITS
+                if ix < 0 or iy < 0 or ty >= n_ty or tx >= n_tx:
+                    continue
+                t = tables[p, ty, tx]
+                if t < 0 or refs[t] != 1:  # only tiles made exclusive beforehand
+                    continue
+                cy = iy & (TILE - 1)
+                cx = ix & (TILE - 1)
+                if hit and k == n - 1:
+                    lo[t, cy, cx] = min(lo[t, cy, cx] + l_occ, l_max)
+                    hits[t, cy, cx, HIT_X] += ex - (origin_x + ix * resolution)
+                    hits[t, cy, cx, HIT_Y] += ey - (origin_y + iy * resolution)
+                    hits[t, cy, cx, HIT_N] += 1.0
+                else:
+                    lo[t, cy, cx] = max(lo[t, cy, cx] + l_free, l_min)
+
+
+@njit
+def _retable(tables, refs, free_stack, free_top, parents):
+    """Replace the maps by copies of ``parents``, keeping reference counts and the free stack."""
+    old = tables.copy()
+    for p in range(tables.shape[0]):
+        for ty in range(tables.shape[1]):
+            for tx in range(tables.shape[2]):
+                t = old[parents[p], ty, tx]
+                tables[p, ty, tx] = t
+                if t >= 0:
+                    refs[t] += 1
+    for p in range(old.shape[0]):
+        for ty in range(old.shape[1]):
+            for tx in range(old.shape[2]):
+                t = old[p, ty, tx]
+                if t >= 0:
+                    refs[t] -= 1
+                    if refs[t] == 0:
+                        free_stack[free_top[0]] = t
+                        free_top[0] += 1
+
+
+class TiledMaps:
+    """``n`` occupancy maps over one growing tile lattice, sharing tiles copy-on-write."""
+
+    def __init__(self, n_maps: int, resolution: float = 0.05, model: SensorModel | None = None,
+                 capacity: int = 256):
+        self.resolution = float(resolution)
+        self.model = model or SensorModel()
+        self.lo = np.zeros((capacity, TILE, TILE), np.float32)
+        self.hits = np.zeros((capacity, TILE, TILE, 3), np.float32)
+        self.refs = np.zeros(capacity, np.int32)
+        self.free_stack = np.arange(capacity - 1, -1, -1, dtype=np.int32)
+        self.free_top = np.array([capacity], np.int64)
+        self.tables = np.full((n_maps, 0, 0), -1, np.int32)
+        self.origin = np.zeros(2)
+
+    @property
+    def n_maps(self) -> int:
+        return self.tables.shape[0]
+
+    @property
+    def tiles_in_use(self) -> int:
+        return int(len(self.refs) - self.free_top[0])
+
+    @property
+    def tile_size(self) -> float:
+        return self.resolution * TILE
+
+    def nbytes(self) -> int:
+        """Bytes held by the pool and the tables."""
+        return self.lo.nbytes + self.hits.nbytes + self.refs.nbytes + self.tables.nbytes
+
+    def ensure_contains(self, xmin: float, ymin: float, xmax: float, ymax: float) -> None:
+        """Grow the common tile lattice (whole tiles, with margin) to cover a world box."""
+        ts = self.tile_size
+        _, n_ty, n_tx = self.tables.shape
+        if n_tx == 0:
+            lo = np.floor(np.array([xmin, ymin]) / ts) - GROW_MARGIN_TILES
+            hi = np.floor(np.array([xmax, ymax]) / ts) + GROW_MARGIN_TILES + 1
+            self.origin = lo * ts
+            self.tables = np.full((self.n_maps, int(hi[1] - lo[1]), int(hi[0] - lo[0])), -1, np.int32)
+            return
+        t0 = np.floor((np.array([xmin, ymin]) - self.origin) / ts).astype(int)
+        t1 = np.floor((np.array([xmax, ymax]) - self.origin) / ts).astype(int)
+        left = GROW_MARGIN_TILES - t0[0] if t0[0] < 0 else 0
+        bottom = GROW_MARGIN_TILES - t0[1] if t0[1] < 0 else 0
+        right = t1[0] - n_tx + 1 + GROW_MARGIN_TILES if t1[0] >= n_tx else 0
+        top = t1[1] - n_ty + 1 + GROW_MARGIN_TILES if t1[1] >= n_ty else 0
+        if left or bottom or right or top:
+            self.tables = np.pad(self.tables, ((0, 0), (bottom, top), (left, right)), constant_values=-1)
+            self.origin = self.origin - np.array([left, bottom]) * ts
+
+    def integrate(self, poses: np.ndarray, scan) -> None:
+        """Integrate ``scan`` into map ``i`` at ``poses[i]``, copying shared tiles first."""
+        poses = np.ascontiguousarray(poses, dtype=np.float64).reshape(self.n_maps, 3)
+        m = self.model
+        reach = min(m.usable_range, max(m.no_return_range, float(np.max(scan.ranges, initial=0.0))))
+        self.ensure_contains(poses[:, 0].min() - reach, poses[:, 1].min() - reach,
+                             poses[:, 0].max() + reach, poses[:, 1].max() + reach)
+        marks = np.zeros(self.tables.shape, np.bool_)
+        args = (self.origin[0], self.origin[1], self.resolution, poses, scan.angles, scan.ranges,
+                scan.range_min, scan.range_max, m.usable_range, m.no_return_range)
+        _mark_touched(self.tables, *args, marks)
+        self._reserve(int(marks.sum()))
+        _make_exclusive(self.tables, marks, self.refs, self.free_stack, self.free_top, self.lo, self.hits)
+        _integrate(self.tables, self.refs, self.lo, self.hits, *args,
+                   m.l_free, m.l_occ, m.l_min, m.l_max)
+
+    def resample(self, parents: np.ndarray) -> None:
+        """Map ``i`` becomes a copy of map ``parents[i]`` (sharing every tile)."""
+        _retable(self.tables, self.refs, self.free_stack, self.free_top,
+                 np.ascontiguousarray(parents, dtype=np.int64))
+
+    def _reserve(self, needed: int) -> None:
+        free = int(self.free_top[0])
+        if free >= needed:
+            return
+        old = len(self.refs)
+        new = max(old + needed - free, int(old * 1.5))
+        extra = new - old
+        self.lo = np.concatenate([self.lo, np.zeros((extra, TILE, TILE), np.float32)])
+        self.hits = np.concatenate([self.hits, np.zeros((extra, TILE, TILE, 3), np.float32)])
+        self.refs = np.concatenate([self.refs, np.zeros(extra, np.int32)])
+        stack = np.empty(new, np.int32)
+        stack[:free] = self.free_stack[:free]
+        stack[free:free + extra] = np.arange(new - 1, old - 1, -1, dtype=np.int32)
+        self.free_stack = stack
+        self.free_top[0] = free + extra
+
+    def to_grid(self, index: int) -> OccupancyGrid:
+        """Map ``index`` as a dense :class:`OccupancyGrid` (cropped to its known tiles)."""
+        table = self.tables[index]
+        used = np.argwhere(table >= 0)
+        grid = OccupancyGrid(self.resolution, self.origin, model=self.model)
+        if len(used) == 0:
+            return grid
+        (ty0, tx0), (ty1, tx1) = used.min(axis=0), used.max(axis=0)
+        data = np.zeros(((ty1 - ty0 + 1) * TILE, (tx1 - tx0 + 1) * TILE), np.float32)
+        for ty, tx in used:
+            y, x = (ty - ty0) * TILE, (tx - tx0) * TILE
+            data[y:y + TILE, x:x + TILE] = self.lo[table[ty, tx]]
+        grid.data = data
+        grid.origin = self.origin + np.array([tx0, ty0]) * self.tile_size
+        return grid
+
+    def seed_from_grid(self, grid: OccupancyGrid) -> None:
+        """Start every map as the same copy of ``grid`` (e.g. a checkpoint); hits from occupied cells."""
+        if abs(grid.resolution - self.resolution) > 1e-12:
+            raise ValueError(f"grid resolution {grid.resolution} != map resolution {self.resolution}")
+        x0, y0, x1, y1 = grid.extent()
+        self.ensure_contains(x0, y0, x1, y1)
+        offset = np.round((grid.origin - self.origin) / self.resolution).astype(int)
+        ny, nx = grid.shape
+        t_lo = offset // TILE
+        t_hi = (offset + np.array([nx, ny]) - 1) // TILE
+        self._reserve((t_hi[0] - t_lo[0] + 1) * (t_hi[1] - t_lo[1] + 1))
+        occupied_lo = self.model.l_occ
+        for ty in range(t_lo[1], t_hi[1] + 1):
+            for tx in range(t_lo[0], t_hi[0] + 1):
+                block = np.zeros((TILE, TILE), np.float32)
+                gy0, gx0 = ty * TILE - offset[1], tx * TILE - offset[0]
+                sy, sx = slice(max(gy0, 0), min(gy0 + TILE, ny)), slice(max(gx0, 0), min(gx0 + TILE, nx))
+                src = grid.data[sy, sx]
+                block[sy.start - gy0:sy.stop - gy0, sx.start - gx0:sx.stop - gx0] = src
+                if not block.any():
+                    continue
+                self.free_top[0] -= 1
+                t = self.free_stack[self.free_top[0]]
+                self.lo[t] = block
+                self.hits[t] = 0.0
+                occ = block > occupied_lo * 0.5
+                self.hits[t][occ, HIT_X] = 0.5 * self.resolution
+                self.hits[t][occ, HIT_Y] = 0.5 * self.resolution
+                self.hits[t][occ, HIT_N] = 1.0
+                self.refs[t] = self.n_maps
+                self.tables[:, ty, tx] = t
