@@ -79,12 +79,12 @@ export class Renderer {
 
     ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
     const layers = this.layers;
-    if (layers.places) this.drawPlaces();
     if (layers.landmarks) this.drawLandmarks();
     if (layers.scan) this.drawScan();
     if (layers.particles) this.drawParticles();
     if (layers.path) this.drawPath();
     this.drawRobot();
+    if (layers.places) this.drawPlaces(); // labels stay readable over the robot
     this.drawPreview();
     this.drawScaleBar();
   }
