@@ -7,11 +7,11 @@ import { wsUrl } from "./urls.js";
 export const RECONNECT_MIN_MS = 500;
 export const RECONNECT_MAX_MS = 5000;
 export const SILENCE_TIMEOUT_MS = 6000; // no frame for this long: the link is dead, reconnect
+export const UNAUTHORIZED_CLOSE = 4401; // PROTOCOL.md: missing or wrong token
 
 export class Connection {
-  constructor({ path = "ws", params = () => ({}), onJson, onBinary, onState }) {
+  constructor({ path = "ws", onJson, onBinary, onState }) {
     this.path = path;
-    this.params = params;
     this.onJson = onJson;
     this.onBinary = onBinary;
     this.onState = onState;
@@ -49,9 +49,10 @@ export class Connection {
     clearTimeout(this.retryTimer);
     let socket;
     try {
-      socket = new WebSocket(wsUrl(this.path, this.params()));
+      socket = new WebSocket(wsUrl(this.path)); // authenticated by the login cookie
     } catch (err) {
-      this._scheduleRetry(String(err));
+      this._setOnline(false, String(err));
+      this._scheduleRetry();
       return;
     }
     socket.binaryType = "arraybuffer";
@@ -83,9 +84,9 @@ export class Connection {
       clearInterval(this.watchdog);
       if (this.socket !== socket) return;
       this.socket = null;
-      const reason = event.code === 4401 || event.code === 1008 ? "unauthorized" : `closed (${event.code})`;
+      const reason = event.code === UNAUTHORIZED_CLOSE ? "unauthorized" : `closed (${event.code})`;
       this._setOnline(false, reason);
-      if (!this.stopped) this._scheduleRetry(reason);
+      if (!this.stopped) this._scheduleRetry();
     };
     socket.onerror = () => {}; // onclose follows and handles it
   }
