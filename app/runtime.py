@@ -163,13 +163,17 @@ class Runtime:
             self.hub.publish("status", self.status())
 
     async def _map_pump(self) -> None:
-        """Read the shared map at ``map_hz``; send changed tiles (FULL on a new layout)."""
+        """Read the shared map at ``map_hz``; send changed tiles (FULL on a new layout, none if unchanged)."""
         tile = self.settings.tile_size
         while True:
             await asyncio.sleep(1.0 / self.settings.map_hz)
             snapshot = await asyncio.to_thread(self.supervisor.shared_map.snapshot)
             last = self.map_snapshot
-            if snapshot is None or (last is not None and snapshot.seq == last.seq):
+            if snapshot is None:
+                continue
+            if last is not None and snapshot.seq == last.seq:
+                # Unchanged: a zero-tile delta, so clients see the map is current (>= 1 Hz).
+                self.hub.publish_map(map_frames.encode(last, tile, np.zeros(0, np.int64)), empty=True)
                 continue
             if last is None or snapshot.epoch != last.epoch or len(snapshot.stamps) != len(last.stamps):
                 self.map_snapshot = snapshot

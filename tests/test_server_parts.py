@@ -169,6 +169,10 @@ def test_an_unsent_map_delta_turns_into_a_full_frame():
     assert client.slots["map"] is FULL_MAP
     hub.publish_map(b"delta3")
     assert client.slots["map"] is FULL_MAP
+    client.slots.clear()
+    hub.publish_map(b"d4")
+    hub.publish_map(b"unchanged", empty=True)  # a heartbeat never displaces a real delta
+    assert client.slots["map"] == b"d4"
 
 
 @pytest.mark.parametrize("name", ["kitchen", "Living room 2", "map_1.v2", "a-b"])

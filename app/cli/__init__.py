@@ -7,7 +7,7 @@ import importlib
 import sys
 
 #: Subcommand modules under ``app.cli``; each defines ``register(subparsers)``.
-COMMANDS = ("map", "eval", "sim", "link", "serve")
+COMMANDS = ("map", "eval", "sim", "link", "localize", "serve")
 
 
 def build_parser() -> argparse.ArgumentParser:

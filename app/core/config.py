@@ -45,6 +45,8 @@ class Settings(BaseSettings):
     tile_size: int = 64
     map_capacity_cells: int = Field(2048 * 2048, ge=64 * 64)
     particles: int = Field(30, ge=1, le=2000)
+    rbpf_linear_update: float = Field(0.25, gt=0.0)
+    rbpf_angular_update: float = Field(0.2, gt=0.0)
     checkpoint_s: float = Field(5.0, gt=0.0)
     worker_restart_delay_s: float = Field(0.5, ge=0.0)
 

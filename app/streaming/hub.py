@@ -23,6 +23,11 @@ log = logging.getLogger(__name__)
 FULL_MAP = object()  # slot marker: send the current full map frame
 
 
+def compact(message: dict) -> str:
+    """JSON as sent on the socket: no spaces, ``type`` first."""
+    return json.dumps(message, separators=(",", ":"))
+
+
 class Client:
     """One websocket and its slots (at most one pending frame per kind)."""
 
@@ -42,9 +47,14 @@ class Client:
         self.slots[kind] = frame
         self.wake.set()
 
-    def offer_map(self, delta: bytes | None) -> None:
-        """A map delta (or ``None`` for a full frame); see the module docstring."""
+    def offer_map(self, delta: bytes | None, empty: bool = False) -> None:
+        """A map delta (or ``None`` for a full frame); see the module docstring.
+
+        An ``empty`` delta (no tiles: the map is unchanged) never displaces a pending frame.
+        """
         pending = self.slots.get("map")
+        if empty and pending is not None:
+            return
         if delta is None or pending is not None:
             if pending is not None and pending is not FULL_MAP:
                 self.dropped += 1
@@ -102,14 +112,14 @@ class Hub:
         """Send ``message`` (with ``type`` = ``kind``) to every client, newest-wins per kind."""
         if not self.clients:
             return
-        text = json.dumps({"type": kind, **message}, separators=(",", ":"))
+        text = compact({"type": kind, **message})
         for client in list(self.clients):
             client.offer(kind, text)
 
-    def publish_map(self, delta: bytes | None) -> None:
+    def publish_map(self, delta: bytes | None, empty: bool = False) -> None:
         """A map delta frame, or ``None`` when every client needs the full map."""
         for client in list(self.clients):
-            client.offer_map(delta)
+            client.offer_map(delta, empty)
 
     async def close_all(self) -> None:
         for client in list(self.clients):

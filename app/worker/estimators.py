@@ -13,6 +13,8 @@ import numpy as np
 
 from slam_core.estimator import Estimate
 from slam_core.occupancy_grid import OccupancyGrid
+from slam_core.rbpf.config import RBPFConfig
+from slam_core.rbpf.filter import RBPFSlam
 from slam_core.scan import Scan
 
 
@@ -29,29 +31,6 @@ class Checkpoint:
     grid: OccupancyGrid | None = None
     mapping: bool = True
     map_name: str | None = None
-
-
-class OdometryMapper:
-    """TEMPORARY mapping estimator (until ``slam_core.rbpf`` lands): scans at the odometry pose.
-
-    No correction at all: the map drifts with the odometry. Replaced by the RBPF in
-    :func:`make_estimator`.
-    """
-
-    def __init__(self, resolution: float, grid: OccupancyGrid | None = None):
-        self.grid = grid if grid is not None else OccupancyGrid(resolution)
-        self.pose = np.zeros(3)
-
-    def step(self, odometry: np.ndarray, scan: Scan) -> bool:
-        self.pose = np.asarray(odometry, float)
-        self.grid.integrate(scan, self.pose)
-        return True
-
-    def estimate(self) -> Estimate:
-        return Estimate(pose=self.pose.copy(), particles=self.pose[None, :].copy(), weights=np.ones(1))
-
-    def occupancy_map(self) -> OccupancyGrid:
-        return self.grid
 
 
 class FrozenMap:
@@ -72,6 +51,17 @@ class FrozenMap:
         return self.grid
 
 
+def _rbpf(settings, pose: np.ndarray, grid: OccupancyGrid | None) -> RBPFSlam:
+    """The RBPF SLAM, resumed on the checkpoint's map when there is one."""
+    config = RBPFConfig(particles=settings.particles, resolution=settings.resolution,
+                        linear_update=settings.rbpf_linear_update,
+                        angular_update=settings.rbpf_angular_update)
+    slam = RBPFSlam(config, seed=settings.seed, initial_pose=pose)
+    if grid is not None and grid.data.size and abs(grid.resolution - settings.resolution) < 1e-12:
+        slam.maps.seed_from_grid(grid)
+    return slam
+
+
 def make_estimator(mode: str, settings, checkpoint: Checkpoint | None):
     """The estimator for ``mode``, resuming from ``checkpoint`` (map and pose) when given."""
     grid = checkpoint.grid if checkpoint is not None else None
@@ -79,10 +69,28 @@ def make_estimator(mode: str, settings, checkpoint: Checkpoint | None):
     if checkpoint is not None and not checkpoint.mapping:
         return FrozenMap(grid, pose)
     if mode == "mapping":
-        return OdometryMapper(settings.resolution, grid)
+        return _rbpf(settings, pose, grid)
     raise ModeUnavailable(f"mode {mode!r} is not available yet in this build")
 
 
 def available_modes() -> tuple[str, ...]:
     """Modes this build can run (the server refuses the others with a reason)."""
     return ("mapping",)
+
+
+WARM_UP_BEAMS = 90
+
+
+def warm_up(settings) -> None:
+    """Compile (or load from numba's cache) the mapping kernels before the first real step.
+
+    A first update compiled lazily would stall the live loop for a long time on a
+    fresh install; a two-particle filter on a synthetic round room does it up front.
+    """
+    config = RBPFConfig(particles=2, resolution=settings.resolution, linear_update=0.01, angular_update=0.01)
+    slam = RBPFSlam(config, seed=0)
+    angles = np.linspace(-np.pi, np.pi, WARM_UP_BEAMS, endpoint=False)
+    scan = Scan(angles, np.full(WARM_UP_BEAMS, 2.0), 0.1, 8.0)
+    slam.step(np.zeros(3), scan)
+    slam.step(np.array([0.05, 0.0, 0.02]), scan)
+    slam.occupancy_map()

@@ -17,7 +17,7 @@ import signal
 import threading
 import time
 import traceback
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -26,8 +26,9 @@ from app.grabbers.odometry_grabber import OdometryGrabber
 from app.grabbers.scan_grabber import ScanGrabber, load_sensor_source
 from app.grabbers.shared import Latest
 from app.worker.checkpoint import load_checkpoint, save_checkpoint, save_exit_map
-from app.worker.estimators import Checkpoint, ModeUnavailable, make_estimator
+from app.worker.estimators import Checkpoint, ModeUnavailable, make_estimator, warm_up
 from app.worker.shared_map import SharedMap, grid_cells
+from slam_core.estimator import Estimate
 from slam_core.geometry import compose, relative, transform_points
 from slam_core.io.ros_map import load_map
 
@@ -88,6 +89,7 @@ class Worker:
             self.mode = "mapping"
             self.estimator = make_estimator("mapping", s, checkpoint)
         self.anchor: tuple[np.ndarray, np.ndarray] | None = None
+        self.updated_at: np.ndarray | None = None  # re-anchored odometry at the estimator's last update
         self.steps = 0
         self.rate_hz = 0.0
         self.last_step = None
@@ -135,6 +137,7 @@ class Worker:
         self.estimator, self.mode, self.mapping = estimator, mode, checkpoint.mapping
         self.pose, self.map_name = checkpoint.pose, checkpoint.map_name
         self.anchor = None
+        self.updated_at = None
         self.map_written = False
 
     def _handle(self, command: tuple) -> None:
@@ -171,6 +174,7 @@ class Worker:
     # the loop
     def run(self) -> None:
         s = self.settings
+        warm_up(s)
         self.odometry_grabber.start()
         self.scan_grabber.start()
         self._event("started", restart=self.spec.restart, mode=self.mode)
@@ -202,8 +206,10 @@ class Worker:
         if self.anchor is None:
             self.anchor = (np.asarray(odometry, float).copy(), self.pose.copy())
         odo0, pose0 = self.anchor
-        self.estimator.step(compose(pose0, relative(odo0, odometry)), scan)
-        estimate = self.estimator.estimate()
+        odometry = compose(pose0, relative(odo0, odometry))
+        if self.estimator.step(odometry, scan) or self.updated_at is None:
+            self.updated_at = odometry
+        estimate = self._dead_reckoned(self.estimator.estimate(), relative(self.updated_at, odometry))
         self.pose = np.asarray(estimate.pose, float)
         self.steps += 1
         now = time.monotonic()
@@ -214,6 +220,20 @@ class Worker:
         self.trajectory.append(self.pose.copy())
         del self.trajectory[:-TRAJECTORY_KEEP]
         self._publish_state(scan, estimate)
+
+    @staticmethod
+    def _dead_reckoned(estimate: Estimate, motion: np.ndarray) -> Estimate:
+        """The estimate moved on by the odometry since the estimator's last update.
+
+        Filters update only every so many centimetres; between updates the published
+        pose and particles follow the odometry so the stream and the controller stay live.
+        """
+        if not np.any(motion):
+            return estimate
+        particles = estimate.particles
+        if particles is not None:
+            particles = np.array([compose(p, motion) for p in particles])
+        return replace(estimate, pose=compose(estimate.pose, motion), particles=particles)
 
     def _publish_map(self) -> None:
         grid = self.estimator.occupancy_map()

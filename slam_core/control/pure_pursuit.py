@@ -11,8 +11,8 @@ the robot follows each straight leg, reaches the waypoint within
 ``waypoint_tolerance``, turns on the spot when the next leg is more than
 ``turn_in_place`` radians off its heading, and only then drives on. Speed drops
 with curvature (``v = v_max / (1 + curvature_gain |kappa|)``) and before sharp
-turns and the goal (``v <= sqrt(2 a d)``, so it can stop in the distance ``d``
-left). It stops within ``goal_tolerance`` of the last waypoint.
+turns and the goal (``v <= sqrt(2 decel d)``, so it can stop in the distance ``d``
+left before the waypoint's tolerance). It stops within ``goal_tolerance`` of the last waypoint.
 
 Obstacle stop: if any valid point of the latest scan lies in the rectangle
 ahead of the robot, ``radius + stop_distance`` long and ``2 (radius +
@@ -38,7 +38,7 @@ class PursuitConfig:
     lookahead: float = 0.35
     v_max: float = 0.4
     w_max: float = 1.2
-    a_max: float = 0.5
+    decel: float = 0.3
     turn_gain: float = 2.0
     turn_in_place: float = 0.6
     slow_turn_angle: float = 0.5
@@ -97,7 +97,8 @@ class PurePursuit:
         kappa = 2.0 * ly / max(lx * lx + ly * ly, 1e-9)
         v = c.v_max / (1.0 + c.curvature_gain * abs(kappa))
         if self.target == last or self._turn_at(self.target) > c.slow_turn_angle:
-            v = min(v, max(math.sqrt(2.0 * c.a_max * dist), MIN_SPEED))
+            tol = c.goal_tolerance if self.target == last else c.waypoint_tolerance
+            v = min(v, max(math.sqrt(2.0 * c.decel * max(dist - tol, 0.0)), MIN_SPEED))
         w = v * kappa
         if abs(w) > c.w_max:
             v *= c.w_max / abs(w)

@@ -56,8 +56,8 @@ class DepthCameraConfig:
 
 
 @njit
-def _render(t, h, n, cos_b, slopes, cam_h, ceiling, out):
-    """z-depth (m) of every pixel; ``inf`` where nothing is seen."""
+def _render(t, h, n, cos_b, slopes, cam_h, ceiling, reach, out):
+    """z-depth (m) of every pixel; ``inf`` where nothing is seen within ``reach`` (horizontal m)."""
     rows = slopes.shape[0]
     for u in range(t.shape[0]):
         for v in range(rows):
@@ -68,7 +68,7 @@ def _render(t, h, n, cos_b, slopes, cam_h, ceiling, out):
                 limit = (ceiling - cam_h) / -s
             else:
                 limit = np.inf
-            z_seen = limit
+            z_seen = limit if limit < reach * cos_b[u] else np.inf
             for i in range(n[u]):
                 z = t[u, i] * cos_b[u]
                 if z >= limit:
@@ -98,7 +98,7 @@ class DepthCamera:
         t, h, n = cast_hits(pose, self.bearings, w.segments, w.segment_heights, w.circles,
                             w.circle_heights, reach, HITS_PER_COLUMN)
         out = np.empty((self.intrinsics.height, self.intrinsics.width))
-        _render(t, h, n, self._cos, self._slopes, c.mount_height, w.ceiling, out)
+        _render(t, h, n, self._cos, self._slopes, c.mount_height, w.ceiling, reach, out)
         return out
 
     def render(self, pose, rng: np.random.Generator | None = None) -> np.ndarray:

@@ -14,6 +14,7 @@ from app.db.store import NotFound
 from app.navigation.navigator import Goal
 from app.navigation.planning import PlanningError
 from app.runtime import Runtime
+from app.streaming.hub import compact
 
 log = logging.getLogger(__name__)
 
@@ -28,7 +29,7 @@ async def _handle(runtime: Runtime, client, text: str) -> None:
     """One client -> server message (goal, cancel, teleop, ping); errors go back as ``error``."""
 
     def reply(kind: str, body: dict) -> None:
-        client.offer(kind, json.dumps({"type": kind, **body}))
+        client.offer(kind, compact({"type": kind, **body}))
 
     try:
         if len(text) > MAX_CLIENT_MESSAGE:
@@ -69,9 +70,9 @@ async def stream(websocket: WebSocket) -> None:
         await websocket.close(code=UNAUTHORIZED_CLOSE, reason="missing or wrong token")
         return
     client = runtime.hub.add(websocket)
-    client.offer("hello", json.dumps({"type": "hello", "protocol": PROTOCOL_VERSION, "mode": runtime.mode,
-                                      "tile_size": runtime.settings.tile_size, "token_ok": True}))
-    client.offer("status", json.dumps({"type": "status", **runtime.status()}))
+    client.offer("hello", compact({"type": "hello", "protocol": PROTOCOL_VERSION, "mode": runtime.mode,
+                                   "tile_size": runtime.settings.tile_size, "token_ok": True}))
+    client.offer("status", compact({"type": "status", **runtime.status()}))
     client.offer_map(None)
     sender = asyncio.create_task(client.run_sender())
     try:

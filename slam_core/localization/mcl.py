@@ -1,0 +1,245 @@
+"""Monte Carlo localization in a known map, AMCL-class.
+
+Thrun, Burgard & Fox, *Probabilistic Robotics*: MCL (table 8.2) with the
+odometry motion model (5.4), the likelihood-field or beam sensor model (6.3 / 6.4),
+low-variance resampling only when the effective sample size falls below a
+threshold, KLD-sampling for the particle count (Fox 2003), and augmented MCL
+(table 8.3) for recovery: short- and long-term averages ``w_fast`` / ``w_slow``
+of the measurement likelihood; each resampled particle is replaced by a random
+pose in free space with probability ``max(0, 1 - w_fast / w_slow)``.
+
+The published pose is the weighted mean of the heaviest particle cluster.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from slam_core.estimator import Estimate
+from slam_core.geometry import relative, wrap_angle
+from slam_core.localization.beam_model import BeamModel, BeamModelParams
+from slam_core.localization.beams import select_beams
+from slam_core.localization.clustering import Cluster, main_cluster
+from slam_core.localization.kld import adaptive_count, pose_bins
+from slam_core.localization.known_map import KnownMap
+from slam_core.localization.likelihood_field import LikelihoodFieldModel, LikelihoodFieldParams
+from slam_core.motion_model import OdometryMotionModel
+from slam_core.occupancy_grid import OccupancyGrid
+from slam_core.resampling import effective_sample_size, low_variance_resample
+from slam_core.scan import Scan
+
+SENSOR_MODELS = ("likelihood_field", "beam")
+
+
+@dataclass(frozen=True)
+class MclConfig:
+    """Tunables, named as in AMCL where AMCL has them."""
+
+    min_particles: int = 500
+    max_particles: int = 20000
+    #: KLD-sampling: bound ``epsilon`` on the K-L error, ``1 - delta`` its confidence, histogram bins.
+    kld_epsilon: float = 0.05
+    kld_delta: float = 0.01
+    kld_xy_bin: float = 0.5
+    kld_theta_bin: float = np.radians(10.0)
+    #: Resample when N_eff < resample_threshold * n.
+    resample_threshold: float = 0.5
+    #: Filter update only after this much travel (m) or turn (rad) since the last update.
+    update_min_d: float = 0.1
+    update_min_a: float = 0.1
+    #: Augmented MCL averaging rates (0 < alpha_slow << alpha_fast); alpha_slow = 0 disables recovery.
+    alpha_slow: float = 0.02
+    alpha_fast: float = 0.3
+    #: Beams scored per scan (evenly spaced) and the sensor model.
+    max_beams: int = 60
+    sensor_model: str = "likelihood_field"
+    likelihood_field: LikelihoodFieldParams = field(default_factory=LikelihoodFieldParams)
+    beam_model: BeamModelParams = field(default_factory=BeamModelParams)
+    motion: OdometryMotionModel = field(default_factory=OdometryMotionModel)
+    #: Pose of the laser in the robot (odometry) frame.
+    laser_pose: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    #: Clustering for the published pose: bin size in x, y (m) and number of heading bins.
+    cluster_xy: float = 0.5
+    cluster_theta_bins: int = 12
+    #: "localized" when the main cluster carries this much weight and its spread is this small.
+    localized_weight: float = 0.9
+    localized_xy_std: float = 0.15
+    localized_theta_std: float = np.radians(8.0)
+    #: ... and the filter is not injecting more than this fraction of random particles,
+    #: and has corrected at least this many times since it was (re)initialized.
+    localized_max_injection: float = 0.3
+    localized_min_updates: int = 5
+
+    def __post_init__(self):
+        if not 1 <= self.min_particles <= self.max_particles:
+            raise ValueError(f"need 1 <= min_particles <= max_particles, got "
+                             f"{self.min_particles}, {self.max_particles}")
+        if self.sensor_model not in SENSOR_MODELS:
+            raise ValueError(f"sensor_model must be one of {SENSOR_MODELS}, got {self.sensor_model!r}")
+        if not 0 <= self.alpha_slow <= self.alpha_fast <= 1:
+            raise ValueError(f"need 0 <= alpha_slow <= alpha_fast <= 1, got "
+                             f"{self.alpha_slow}, {self.alpha_fast}")
+        if not 0 < self.resample_threshold <= 1:
+            raise ValueError(f"resample_threshold is a fraction in (0, 1], got {self.resample_threshold}")
+        if self.max_beams < 1 or self.update_min_d < 0 or self.update_min_a < 0:
+            raise ValueError("need max_beams >= 1 and non-negative update thresholds")
+
+
+@dataclass(frozen=True)
+class MclStatus:
+    """What the last update did, for dashboards and logs."""
+
+    particles: int
+    effective_sample_size: float
+    resampled: bool
+    w_slow: float
+    w_fast: float
+    injection: float
+    beams: int
+
+
+class MonteCarloLocalizer:
+    """Monte Carlo localization against a known :class:`OccupancyGrid` (an :class:`Estimator`).
+
+    Starts from ``initial_pose`` with ``initial_covariance`` (3x3, default 0.25 m and
+    15 deg standard deviation) or, without a pose, globally (uniform over free space).
+    """
+
+    def __init__(self, grid: OccupancyGrid, config: MclConfig | None = None,
+                 rng: np.random.Generator | None = None, initial_pose=None, initial_covariance=None):
+        self.config = config or MclConfig()
+        self.rng = rng if rng is not None else np.random.default_rng()
+        self.map = KnownMap(grid)
+        if self.config.sensor_model == "beam":
+            self.sensor = BeamModel(self.map, self.config.beam_model)
+        else:
+            self.sensor = LikelihoodFieldModel(self.map, self.config.likelihood_field)
+        self._last_odom: np.ndarray | None = None
+        self._estimate: Estimate | None = None
+        self.status = MclStatus(0, 0.0, False, 0.0, 0.0, 0.0, 0)
+        if initial_pose is None:
+            self.global_localization()
+        else:
+            self.set_pose(initial_pose, initial_covariance)
+
+    # -- initialization -------------------------------------------------------------------
+    def global_localization(self) -> None:
+        """Forget the pose: ``max_particles`` uniform over free space, any heading."""
+        self._reset(self.map.sample_free_poses(self.config.max_particles, self.rng))
+
+    def set_pose(self, pose, covariance=None) -> None:
+        """"I am here": particles drawn from a Gaussian around ``pose`` (x, y, theta)."""
+        pose = np.asarray(pose, dtype=np.float64).reshape(-1)
+        if pose.shape != (3,) or not np.all(np.isfinite(pose)):
+            raise ValueError(f"pose must be three finite numbers (x, y, theta), got {pose}")
+        if covariance is None:
+            covariance = np.diag([0.25 ** 2, 0.25 ** 2, np.radians(15.0) ** 2])
+        cov = np.asarray(covariance, dtype=np.float64)
+        if cov.shape != (3, 3) or not np.allclose(cov, cov.T) or np.any(np.linalg.eigvalsh(cov) < -1e-12):
+            raise ValueError(f"covariance must be a symmetric positive semi-definite 3x3 matrix, got {cov}")
+        n = self.config.max_particles
+        particles = self.rng.multivariate_normal(pose, cov, size=n, method="eigh")
+        particles[:, 2] = wrap_angle(particles[:, 2])
+        self._reset(particles)
+
+    def _reset(self, particles: np.ndarray) -> None:
+        self.particles = np.ascontiguousarray(particles, dtype=np.float64)
+        self.weights = np.full(len(particles), 1.0 / len(particles))
+        self._fresh = np.zeros(len(particles), bool)
+        self.updates_since_reset = 0
+        self.w_slow = 0.0
+        self.w_fast = 0.0
+        self._estimate = None
+
+    # -- the filter -----------------------------------------------------------------------
+    def step(self, odometry, scan: Scan) -> bool:
+        """Predict with the odometry since the last update and correct with ``scan``.
+
+        The first call only corrects; later calls wait until the robot moved
+        ``update_min_d`` or turned ``update_min_a`` (returns False meanwhile).
+        """
+        odom = np.asarray(odometry, dtype=np.float64).reshape(-1)
+        if odom.shape != (3,) or not np.all(np.isfinite(odom)):
+            raise ValueError(f"odometry must be three finite numbers (x, y, theta), got {odom}")
+        cfg = self.config
+        if self._last_odom is not None:
+            delta = relative(self._last_odom, odom)
+            if np.hypot(delta[0], delta[1]) < cfg.update_min_d and abs(delta[2]) < cfg.update_min_a:
+                return False
+            self.particles = cfg.motion.sample(self.particles, self._last_odom, odom, self.rng)
+        self._last_odom = odom
+        self._correct(scan)
+        self.updates_since_reset += 1
+        return True
+
+    def _correct(self, scan: Scan) -> None:
+        cfg = self.config
+        beams = select_beams(scan, cfg.max_beams)
+        log_lik, used = self.sensor.log_likelihood(self.particles, beams, cfg.laser_pose)
+        if used == 0:  # nothing to compare with the map: keep the prediction
+            self.status = MclStatus(len(self.particles), effective_sample_size(self.weights), False,
+                                    self.w_slow, self.w_fast, 0.0, 0)
+            self._estimate = None
+            return
+        # Augmented MCL averages a per-beam (geometric mean) likelihood, independent of beam count,
+        # over the particles that were not just injected: random guesses would otherwise keep the
+        # average low and the injection going after the filter has recovered.
+        kept = self.weights * ~self._fresh
+        if kept.sum() <= 0.0:
+            kept = self.weights
+        w_avg = float(kept @ np.exp(log_lik / used) / kept.sum())
+        if self.w_slow == 0.0:
+            self.w_slow = self.w_fast = w_avg
+        else:
+            self.w_slow += cfg.alpha_slow * (w_avg - self.w_slow)
+            self.w_fast += cfg.alpha_fast * (w_avg - self.w_fast)
+        injection = max(0.0, 1.0 - self.w_fast / self.w_slow) if cfg.alpha_slow > 0 else 0.0
+        log_w = np.log(self.weights) + log_lik
+        w = np.exp(log_w - log_w.max())
+        self.weights = w / w.sum()
+        neff = effective_sample_size(self.weights)
+        resample = neff < cfg.resample_threshold * len(self.weights) or injection > 0.0
+        if resample:
+            self._resample(injection)
+        self.status = MclStatus(len(self.particles), neff, resample, self.w_slow, self.w_fast,
+                                injection, used)
+        self._estimate = None
+
+    def _resample(self, injection: float) -> None:
+        """Low-variance resampling to a KLD-sampling count, replacing some draws by random poses."""
+        cfg = self.config
+        idx = low_variance_resample(self.weights, self.rng, cfg.max_particles)
+        self.rng.shuffle(idx)  # KLD keeps a prefix: it must be a fair subsample
+        drawn = self.particles[idx]
+        fresh = self.rng.random(len(drawn)) < injection
+        if fresh.any():
+            drawn[fresh] = self.map.sample_free_poses(int(fresh.sum()), self.rng)
+        keys = pose_bins(drawn, cfg.kld_xy_bin, cfg.kld_theta_bin)
+        n = adaptive_count(keys, cfg.kld_epsilon, cfg.kld_delta, cfg.min_particles, cfg.max_particles)
+        self.particles = np.ascontiguousarray(drawn[:n])
+        self.weights = np.full(n, 1.0 / n)
+        self._fresh = fresh[:n]
+
+    # -- what it publishes ----------------------------------------------------------------
+    def main_cluster(self) -> Cluster:
+        cfg = self.config
+        return main_cluster(self.particles, self.weights, cfg.cluster_xy, cfg.cluster_theta_bins)
+
+    def estimate(self) -> Estimate:
+        """Weighted mean and covariance of the main cluster; ``localized`` when it is tight."""
+        if self._estimate is None:
+            cfg = self.config
+            c = self.main_cluster()
+            xy_std = float(np.sqrt(max(c.covariance[0, 0], c.covariance[1, 1])))
+            localized = (c.weight >= cfg.localized_weight and xy_std <= cfg.localized_xy_std
+                         and np.sqrt(c.covariance[2, 2]) <= cfg.localized_theta_std
+                         and self.status.injection <= cfg.localized_max_injection
+                         and self.updates_since_reset >= cfg.localized_min_updates)
+            self._estimate = Estimate(pose=c.pose, covariance=c.covariance, particles=self.particles,
+                                      weights=self.weights, localized=bool(localized))
+        return self._estimate
+
+    def occupancy_map(self) -> OccupancyGrid:
+        return self.map.grid

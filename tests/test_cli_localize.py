@@ -1,0 +1,50 @@
+"""``homebot localize`` on a short simulator recording, scored against its ground truth."""
+
+import numpy as np
+import pytest
+
+from app.cli import main
+from slam_core.geometry import wrap_angle
+from slam_core.io.carmen import laser_records
+from slam_core.io.trajectory import Trajectory
+from slam_core.sim.record import record_tour
+from slam_core.sim.simulator import SimConfig
+from slam_core.sim.world import load_world
+
+
+@pytest.fixture(scope="module")
+def recording(tmp_path_factory):
+    world = load_world("flat")
+    return record_tour(world, tmp_path_factory.mktemp("rec"), seed=3, duration=25.0,
+                       config=SimConfig(sensing_hz=5.0)), world
+
+
+def test_localize_writes_one_pose_per_scan_close_to_the_truth(recording, tmp_path, capsys):
+    rec, world = recording
+    x, y, th = world.start
+    code = main(["localize", str(rec.log), "--map", str(rec.map_yaml), "--initial", f"{x},{y},{th}",
+                 "--particles", "200,3000", "--out", str(tmp_path)])
+    assert code == 0
+    out = capsys.readouterr().out
+    assert "first localized at scan" in out
+    traj = Trajectory.load(tmp_path / "trajectory.txt")
+    truth = Trajectory.load(rec.ground_truth)
+    assert traj.stamps == truth.stamps == [r.stamp.ipc_text for r in laser_records(rec.log)]
+    err = np.hypot(*(traj.poses[:, :2] - truth.poses[:, :2]).T)
+    assert np.median(err) < 0.05
+    assert np.median(np.abs(wrap_angle(traj.poses[:, 2] - truth.poses[:, 2]))) < np.radians(2)
+
+
+def test_localize_refuses_a_malformed_initial_pose(recording, tmp_path, capsys):
+    rec, _ = recording
+    with pytest.raises(SystemExit):
+        main(["localize", str(rec.log), "--map", str(rec.map_yaml), "--initial", "1,2",
+              "--out", str(tmp_path)])
+    assert "--initial must be 3 comma-separated numbers" in capsys.readouterr().err
+
+
+def test_localize_reports_a_missing_map(recording, tmp_path, capsys):
+    rec, _ = recording
+    code = main(["localize", str(rec.log), "--map", str(tmp_path / "nope.yaml"), "--out", str(tmp_path)])
+    assert code == 2
+    assert "nope.yaml" in capsys.readouterr().err
