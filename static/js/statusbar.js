@@ -1,0 +1,79 @@
+// The status bar (connection, mode, localized, worker rate, navigation, last error) and the robot
+// details panel, refreshed from the state.
+
+import { degrees } from "./geometry.js";
+
+const MODE_NAMES = { mapping: "Mapping", localization: "Localization", ekf: "EKF SLAM" };
+
+function setPill(el, text, tone) {
+  el.textContent = text;
+  el.classList.toggle("good", tone === "good");
+  el.classList.toggle("warn", tone === "warn");
+}
+
+export class StatusBar {
+  constructor(state, root = document) {
+    this.state = state;
+    this.conn = root.getElementById("st-conn");
+    this.mode = root.getElementById("st-mode");
+    this.loc = root.getElementById("st-loc");
+    this.rate = root.getElementById("st-rate");
+    this.nav = root.getElementById("st-nav");
+    this.error = root.getElementById("st-error");
+    this.details = root.getElementById("details");
+    this.banner = root.getElementById("offline-banner");
+  }
+
+  render() {
+    const { state } = this;
+    const s = state.status;
+    this.conn.classList.toggle("online", state.online);
+    this.conn.classList.toggle("offline", !state.online);
+    this.conn.querySelector("span").textContent = state.online ? "online" : "offline";
+    this.banner.hidden = state.online;
+
+    const mode = s?.mode;
+    this.mode.textContent = mode ? `${MODE_NAMES[mode] ?? mode}${s.mapping === false && mode === "mapping" ? " (paused)" : ""}` : "—";
+    const localized = state.pose?.localized ?? s?.localized;
+    if (localized === undefined) setPill(this.loc, "—");
+    else setPill(this.loc, localized ? "localized" : "not localized", localized ? "good" : "warn");
+
+    const worker = s?.worker;
+    if (worker) {
+      const alive = worker.alive !== false;
+      setPill(this.rate, alive ? `${(worker.rate_hz ?? 0).toFixed(1)} Hz` : "worker down", alive ? "" : "warn");
+      this.rate.title = `SLAM worker: ${worker.steps ?? 0} steps, ${worker.restarts ?? 0} restarts`;
+    }
+    const nav = state.path?.state ?? s?.nav?.state ?? "idle";
+    const reason = state.path?.reason ?? s?.nav?.reason;
+    setPill(this.nav, nav + (nav === "failed" && reason ? `: ${reason}` : ""), nav === "failed" ? "warn" : nav === "arrived" ? "good" : "");
+
+    const message = state.lastError?.message ?? worker?.last_error ?? null;
+    this.error.hidden = !message;
+    this.error.textContent = message ? `⚠ ${message}` : "";
+    this.error.title = message ? `${message} (click to dismiss)` : "";
+
+    this.renderDetails(s, worker);
+  }
+
+  renderDetails(s, worker) {
+    const pose = this.state.pose ?? (s?.pose ? { ...s.pose } : null);
+    const rows = [
+      ["pose", pose ? `x ${pose.x.toFixed(2)} m, y ${pose.y.toFixed(2)} m, ${degrees(pose.yaw).toFixed(0)}°` : "—"],
+      ["stream", `${this.state.rate("pose").toFixed(1)} poses/s`],
+      ["map", s?.map ? `${s.map.width}×${s.map.height} cells @ ${(s.map.resolution * 100).toFixed(0)} cm` : "—"],
+      ["path", s?.path_length ? `${s.path_length.toFixed(2)} m` : "—"],
+      ["worker", worker ? `pid ${worker.pid ?? "—"}, ${worker.steps ?? 0} steps, ${worker.restarts ?? 0} restarts` : "—"],
+      ["source", s ? (s.sim ? "simulation" : "robot") : "—"],
+    ];
+    this.details.replaceChildren(
+      ...rows.flatMap(([k, v]) => {
+        const dt = document.createElement("dt");
+        dt.textContent = k;
+        const dd = document.createElement("dd");
+        dd.textContent = v;
+        return [dt, dd];
+      }),
+    );
+  }
+}
