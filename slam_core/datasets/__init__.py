@@ -12,8 +12,8 @@ BUNDLED = {
     "mit-csail": (HERE / "mit-csail" / "mit-csail.clf.bz2", HERE / "mit-csail" / "mit-csail.relations"),
 }
 
-CREDIT = ("Data: Freiburg SLAM benchmark / Radish, CC-BY "
-          "(Intel Research Lab log recorded by Dirk Hähnel).")
+CREDIT = ("Data: Freiburg SLAM benchmark / Radish, CC-BY (Intel Research Lab log "
+          "recorded by Dirk Hähnel; MIT CSAIL log; relations by Kümmerle et al. 2009).")
 
 
 def resolve_log(name_or_path) -> Path:
