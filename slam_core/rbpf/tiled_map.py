@@ -30,21 +30,6 @@ HIT_X, HIT_Y, HIT_N = 0, 1, 2
 
 
 @njit
-def cell_logodds(table, lo, ix, iy):
-    """Log-odds of cell ``(ix, iy)`` in the map ``table`` (0 when never seen)."""
-    if ix < 0 or iy < 0:
-        return 0.0
-    ty = iy >> TILE_BITS
-    tx = ix >> TILE_BITS
-    if ty >= table.shape[0] or tx >= table.shape[1]:
-        return 0.0
-    t = table[ty, tx]
-    if t < 0:
-        return 0.0
-    return lo[t, iy & (TILE - 1), ix & (TILE - 1)]
-
-
-@njit
 def _mark_touched(tables, origin_x, origin_y, resolution, poses, angles, ranges, range_min,
                   range_max, usable_range, no_return_range, marks):
     """Mark, per map, the tiles a scan from that map's pose will write."""
