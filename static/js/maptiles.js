@@ -8,6 +8,8 @@ import { UNKNOWN } from "./mapframe.js";
 const UNKNOWN_RGBA = [205, 210, 216, 255];
 const FREE_RGB = [252, 252, 250];
 const OCCUPIED_RGB = [33, 37, 48];
+const RAMP_FROM = 20; // percent
+const RAMP_TO = 80;
 
 // Cell value (0..100 percent occupied, 255 unknown) -> packed little-endian RGBA (for a Uint32Array).
 function buildPalette() {
@@ -15,7 +17,9 @@ function buildPalette() {
   const pack = (r, g, b, a) => ((a << 24) | (b << 16) | (g << 8) | r) >>> 0;
   palette.fill(pack(...UNKNOWN_RGBA));
   for (let p = 0; p <= 100; p++) {
-    const t = p / 100;
+    // Likely free (<= 20 %) shows white, likely occupied (>= 80 %) dark, a ramp between: cells the
+    // robot has seen only a few times stay clearly apart from the unknown colour.
+    const t = Math.min(1, Math.max(0, (p - RAMP_FROM) / (RAMP_TO - RAMP_FROM)));
     const rgb = FREE_RGB.map((free, k) => Math.round(free + (OCCUPIED_RGB[k] - free) * t));
     palette[p] = pack(rgb[0], rgb[1], rgb[2], 255);
   }

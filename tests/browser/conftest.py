@@ -172,3 +172,76 @@ def homebot_server(tmp_path_factory, artifacts):
     server.start()
     yield server
     server.stop()
+
+
+class SubPathProxy:
+    """A minimal reverse proxy that serves the server under ``/robot/`` (it strips the prefix), for
+    HTTP and websocket upgrades alike, and records every path the browser asked for. A request
+    outside the prefix (an absolute URL in the dashboard) gets a 404 and is listed in ``refused``."""
+
+    PREFIX = b"/robot"
+
+    def __init__(self, target_port: int):
+        self.target_port = target_port
+        self.listener = socket.create_server(("127.0.0.1", 0))
+        self.url = f"http://127.0.0.1:{self.listener.getsockname()[1]}{self.PREFIX.decode()}/"
+        self.paths: list[str] = []
+        self.refused: list[str] = []
+        threading.Thread(target=self._accept, daemon=True).start()
+
+    def close(self) -> None:
+        self.listener.close()
+
+    def _accept(self) -> None:
+        while True:
+            try:
+                client, _ = self.listener.accept()
+            except OSError:
+                return
+            threading.Thread(target=self._serve, args=(client,), daemon=True).start()
+
+    def _serve(self, client: socket.socket) -> None:
+        data = b""
+        while b"\r\n\r\n" not in data:
+            chunk = client.recv(65536)
+            if not chunk:
+                client.close()
+                return
+            data += chunk
+        head, body = data.split(b"\r\n\r\n", 1)
+        request_line, *headers = head.split(b"\r\n")
+        method, path, version = request_line.split(b" ", 2)
+        if not path.startswith(self.PREFIX + b"/"):
+            self.refused.append(path.decode())
+            client.sendall(b"HTTP/1.1 404 Not Found\r\nContent-Length: 0\r\nConnection: close\r\n\r\n")
+            client.close()
+            return
+        self.paths.append(path.decode().split("?")[0])
+        if not any(h.lower().startswith(b"upgrade:") for h in headers):  # one request per connection
+            headers = [h for h in headers if not h.lower().startswith(b"connection:")]
+            headers.append(b"Connection: close")
+        upstream = socket.create_connection(("127.0.0.1", self.target_port))
+        line = b" ".join([method, path[len(self.PREFIX):], version])
+        upstream.sendall(b"\r\n".join([line, *headers]) + b"\r\n\r\n" + body)
+        back = threading.Thread(target=self._pipe, args=(upstream, client), daemon=True)
+        back.start()
+        self._pipe(client, upstream)
+        back.join()
+        client.close()
+        upstream.close()
+
+    @staticmethod
+    def _pipe(source: socket.socket, sink: socket.socket) -> None:
+        try:
+            while chunk := source.recv(65536):
+                sink.sendall(chunk)
+            sink.shutdown(socket.SHUT_WR)
+        except OSError:
+            pass
+
+
+@pytest.fixture
+def subpath_proxy(homebot_server):
+    proxy = SubPathProxy(homebot_server.port)
+    yield proxy
+    proxy.close()
