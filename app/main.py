@@ -39,6 +39,12 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.include_router(api_router)
     app.include_router(ws_router)
 
+    @app.api_route("/api/{path:path}", methods=["GET", "POST", "PUT", "PATCH", "DELETE"],
+                   include_in_schema=False)
+    async def _unknown_api_route(path: str) -> JSONResponse:
+        """An unknown API path is a 404 with a reason; it never falls through to the static files."""
+        return JSONResponse({"detail": f"no API route /api/{path}"}, status_code=404)
+
     @app.exception_handler(RequestValidationError)
     async def _validation(request: Request, exc: RequestValidationError) -> JSONResponse:
         """422 with a JSON-safe reason (also for bodies that are not JSON at all)."""
