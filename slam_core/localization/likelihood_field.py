@@ -18,10 +18,9 @@ from dataclasses import dataclass
 import numpy as np
 from numba import prange
 
-from slam_core.jit import njit
 from slam_core.localization.beams import BeamSelection
 from slam_core.localization.known_map import KnownMap
-from slam_core.localization.parallel import PARALLEL_MIN_PARTICLES
+from slam_core.localization.parallel import by_particle_count
 
 
 @dataclass(frozen=True)
@@ -66,14 +65,9 @@ def _score_body(particles, laser, bx, by, table, outside, origin_x, origin_y, in
         out[i] = total
 
 
-
 #: Compiled twice: threads pay off only for large particle sets (and hurt on a busy machine).
-_score_serial = njit(_score_body)
-_score_parallel = njit(parallel=True)(_score_body)
+_score = by_particle_count(_score_body)
 
-
-def _score(n_particles):
-    return _score_parallel if n_particles >= PARALLEL_MIN_PARTICLES else _score_serial
 
 class LikelihoodFieldModel:
     """Scores particles ``(n, 3)`` against a scan by the likelihood field of a :class:`KnownMap`."""
