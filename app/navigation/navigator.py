@@ -93,6 +93,8 @@ class Navigator:
         if goal.place != TOUR:
             self.take_over()
         path = await self._plan(goal)
+        if goal.place == TOUR and self._tour is None:
+            return self.snapshot()  # a person took over while this tour stop was being planned
         self._generation += 1
         self._teleop = None
         self.goal, self.path, self.state, self.reason = goal, path, "driving", None

@@ -123,8 +123,10 @@ class HomebotServer:
     def start(self) -> None:
         command = [sys.executable, "-m", "app.cli", "serve", "--port", str(self.port),
                    "--data", str(self.data)]
+        # No scripted tour: the tests decide where the robot goes (the tour has its own server test).
+        env = {**os.environ, "HOMEBOT_SIM_TOUR": "0"}
         with open(self.log_path, "ab") as log:
-            self.process = subprocess.Popen(command, cwd=REPO, stdout=log, stderr=subprocess.STDOUT)
+            self.process = subprocess.Popen(command, cwd=REPO, env=env, stdout=log, stderr=subprocess.STDOUT)
         self.wait_ready()
 
     def log_tail(self) -> str:
