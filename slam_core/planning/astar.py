@@ -88,15 +88,9 @@ def _pop_top(heap, size):
         heap[2 * i] = heap[2 * c]
         heap[2 * i + 1] = heap[2 * c + 1]
         i = c
-    while i > 0:
-        p = (i - 1) >> 1
-        if heap[2 * p] <= key:
-            break
-        heap[2 * i] = heap[2 * p]
-        heap[2 * i + 1] = heap[2 * p + 1]
-        i = p
     heap[2 * i] = key
     heap[2 * i + 1] = val
+    _sift_up(heap, i)
 
 
 @njit(inline="always")
