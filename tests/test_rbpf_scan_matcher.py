@@ -1,12 +1,12 @@
-"""The scan matcher on a hand-made room: a known shift comes back."""
+"""The scan matcher on a hand-made room: a known shift comes back; its pieces on tiny cases."""
 
 import numpy as np
 import pytest
 
 from slam_core.geometry import relative
 from slam_core.rbpf.config import MatcherParams
-from slam_core.rbpf.scan_matcher import evaluate_pose, hill_climb
-from slam_core.rbpf.tiled_map import TiledMaps
+from slam_core.rbpf.scan_matcher import local_line, match, pose_likelihood
+from slam_core.rbpf.tiled_map import HIT_N, HIT_X, HIT_Y, TILE, TiledMaps
 from tests.synthetic_room import room_scan
 
 TRUE_POSE = np.array([0.3, 0.2, 0.1])
@@ -38,28 +38,78 @@ def test_a_known_shift_is_recovered(room_map, shift):
     params = MatcherParams().packed()
     beams = beams_of(room_scan(TRUE_POSE, 180))
     start = TRUE_POSE + np.array(shift)
-    x, y, th, score = hill_climb(*args_of(room_map), *start, beams, params, 0.05, 0.05, 8)
+    x, y, th, info, matched = match(*args_of(room_map), *start, beams, params, 15, 5)
     err = relative(TRUE_POSE, [x, y, th])
-    assert np.hypot(err[0], err[1]) < 0.006
-    assert abs(err[2]) < np.radians(0.3)
-    start_score, _, _ = evaluate_pose(*args_of(room_map), *start, beams, params)
-    assert score > start_score
+    assert np.hypot(err[0], err[1]) < 0.003
+    assert abs(err[2]) < np.radians(0.1)
+    assert matched >= 0.95 * len(beams)
+    assert np.all(np.linalg.eigvalsh(info) > 0)  # a closed room pins every direction
+    start_ll, _ = pose_likelihood(*args_of(room_map), *start, beams, params)
+    end_ll, _ = pose_likelihood(*args_of(room_map), x, y, th, beams, params)
+    assert end_ll > start_ll
 
 
-def test_score_and_likelihood_peak_at_the_true_pose(room_map):
+def test_likelihood_peaks_at_the_true_pose(room_map):
     params = MatcherParams().packed()
     beams = beams_of(room_scan(TRUE_POSE, 180))
-    best, best_ll, matched = evaluate_pose(*args_of(room_map), *TRUE_POSE, beams, params)
+    best_ll, matched = pose_likelihood(*args_of(room_map), *TRUE_POSE, beams, params)
     assert matched >= 0.95 * len(beams)
-    for d in [(0.05, 0, 0), (0, -0.05, 0), (0, 0, 0.03)]:
-        score, ll, _ = evaluate_pose(*args_of(room_map), *(TRUE_POSE + d), beams, params)
-        assert score < best and ll < best_ll
+    for d in [(0.03, 0, 0), (0, -0.03, 0), (0, 0, 0.02)]:
+        ll, _ = pose_likelihood(*args_of(room_map), *(TRUE_POSE + d), beams, params)
+        assert ll < best_ll
 
 
 def test_beams_into_unknown_space_do_not_match():
     maps = TiledMaps(1, 0.05)
     params = MatcherParams().packed()
     beams = beams_of(room_scan(TRUE_POSE, 90))
-    score, ll, matched = evaluate_pose(*args_of(maps), *TRUE_POSE, beams, params)
-    assert matched == 0 and score == 0.0
-    assert ll == pytest.approx(-len(beams) * params[2] / (2 * params[1]))
+    ll, matched = pose_likelihood(*args_of(maps), *TRUE_POSE, beams, params)
+    assert matched == 0
+    assert ll == pytest.approx(-len(beams) * params[1] / (2 * params[0]))
+    *_, info, matched = match(*args_of(maps), *TRUE_POSE, beams, params, 5, 2)
+    assert matched == 0 and not info.any()
+
+
+def _map_with_surface_points(points, resolution=0.05):
+    """A one-tile map whose occupied cells hold exactly the given surface points."""
+    maps = TiledMaps(1, resolution)
+    maps.ensure_contains(0.0, 0.0, 1.0, 1.0)
+    maps._reserve(1)
+    maps.free_top[0] -= 1
+    t = maps.free_stack[maps.free_top[0]]
+    maps.refs[t] = 1
+    ty, tx = (-maps.origin / maps.tile_size).astype(int)[::-1]
+    maps.tables[0, ty, tx] = t
+    maps.lo[t] = 0.0
+    maps.hits[t] = 0.0
+    cells = []
+    for px, py in points:
+        ix, iy = np.floor((np.array([px, py]) - maps.origin) / resolution).astype(int)
+        lx, ly = ix % TILE, iy % TILE
+        maps.lo[t, ly, lx] = 2.0
+        maps.hits[t, ly, lx, HIT_X] = px - (maps.origin[0] + ix * resolution)
+        maps.hits[t, ly, lx, HIT_Y] = py - (maps.origin[1] + iy * resolution)
+        maps.hits[t, ly, lx, HIT_N] = 1.0
+        cells.append((ix, iy))
+    return maps, cells
+
+
+@pytest.mark.parametrize("angle", [0.0, 0.3, np.pi / 2, -1.1])
+def test_local_line_finds_the_normal_of_a_straight_wall(angle):
+    d = np.array([np.cos(angle), np.sin(angle)])
+    centre = np.array([0.52, 0.47])
+    points = [centre + s * d for s in np.linspace(-0.06, 0.06, 5)]
+    maps, cells = _map_with_surface_points(points)
+    occupied = MatcherParams().packed()[2]
+    is_line, nx, ny, cx, cy = local_line(*args_of(maps), *cells[2], occupied)
+    assert is_line
+    assert abs(nx * d[0] + ny * d[1]) < 1e-6  # normal across the wall
+    assert abs(np.hypot(nx, ny) - 1) < 1e-9
+    assert abs(nx * (cx - centre[0]) + ny * (cy - centre[1])) < 1e-6  # the centroid is on the wall
+
+
+def test_scattered_points_are_no_line():
+    points = [(0.51, 0.51), (0.56, 0.46), (0.47, 0.56), (0.57, 0.58), (0.46, 0.44)]
+    maps, cells = _map_with_surface_points(points)
+    occupied = MatcherParams().packed()[2]
+    assert not local_line(*args_of(maps), *cells[0], occupied)[0]

@@ -14,21 +14,21 @@ from slam_core.occupancy_grid import SensorModel, logit
 class MatcherParams:
     """Scan matching and observation likelihood (GMapping's names in brackets).
 
-    ``sigma`` (sigma): spread of the matching score; ``lsigma`` (lsigma): the
-    observation likelihood; ``max_distance``: a beam with no surface within the
-    kernel counts as this far off; ``linear_step`` / ``angular_step`` (lstep /
-    astep) and ``refinements`` (iterations): hill climbing of the leading
-    particle, which finds the odometry's error; ``particle_*``: the same for
-    every particle, starting from its prediction corrected by that error;
-    ``max_beams``: beams used (evenly spread) for matching; ``min_matched``: the
-    fraction of them that must match, else the particle falls back to the
-    motion model; ``sample_*``: spacing and beam count of the poses around the
-    match at which the proposal is evaluated; ``good_match``: the fraction of
-    matched beams above which the leading particle's match from the bare
-    prediction is trusted without the coarse search. ``gain`` tempers the
-    weights: a particle's weight is multiplied by ``eta ** (1 / gain)``,
-    because beams are far from independent (GMapping divides by ogain times
-    the particle count).
+    ``lsigma`` (lsigma): spread of a beam's likelihood; ``max_distance``: a beam
+    with no surface within reach counts as this far off; ``iterations`` /
+    ``wide_iterations``: Gauss-Newton steps, the first ones searching
+    correspondences two cells wide; ``huber``: residual (m) beyond which a beam's
+    pull stops growing; ``start_sigma_xy`` / ``start_sigma_th``: the weak prior
+    on the start pose that settles directions the scan leaves open;
+    ``max_beams``: beams used (evenly spread) up to ``max_range``;
+    ``min_matched``: the fraction of them that must match, else the particle
+    falls back to the motion model; ``good_match``: the matched fraction above
+    which the leading particle's match from the bare prediction is trusted
+    without the coarse search; ``motion_floor_xy`` / ``motion_floor_th``: the
+    least spread (m, rad) of the motion model's prediction in the proposal.
+    ``gain`` tempers the weights: a particle's weight is multiplied by
+    ``eta ** (1 / gain)``, because beams are far from independent (GMapping
+    divides by ogain times the particle count).
 
     ``coarse_*``: the correlative search for the odometry's error on the best
     particle's map (:mod:`slam_core.rbpf.correlative`): beams up to
@@ -40,25 +40,22 @@ class MatcherParams:
     rad around the prediction.
     """
 
-    sigma: float = 0.05
     lsigma: float = 0.075
     gain: float = 50.0
     max_distance: float = 0.15
-    linear_step: float = 0.025
-    angular_step: float = 0.0125
-    refinements: int = 5
-    particle_linear_step: float = 0.025
-    particle_angular_step: float = 0.0125
-    particle_refinements: int = 5
-    max_beams: int = 90
+    iterations: int = 10
+    wide_iterations: int = 3
+    huber: float = 0.05
+    start_sigma_xy: float = 0.3
+    start_sigma_th: float = 0.3
+    max_beams: int = 180
     max_range: float = 20.0
     min_matched: float = 0.25
     good_match: float = 0.6
+    motion_floor_xy: float = 0.01
+    motion_floor_th: float = 0.005
     occupied_prob: float = 0.6
     free_prob: float = 0.45
-    sample_linear: float = 0.02
-    sample_angular: float = 0.01
-    sample_beams: int = 60
     coarse_range: float = 10.0
     coarse_beams: int = 90
     coarse_linear_cells: int = 6
@@ -70,9 +67,14 @@ class MatcherParams:
     coarse_prior_angular: float = 0.2
 
     def packed(self) -> np.ndarray:
-        """The numbers the compiled kernels read, in their order."""
-        return np.array([self.sigma ** 2, self.lsigma ** 2, self.max_distance ** 2,
-                         logit(self.occupied_prob), logit(self.free_prob)])
+        """The numbers the compiled kernels read, in their order (see ``scan_matcher.P_*``)."""
+        return np.array([self.lsigma ** 2, self.max_distance ** 2, logit(self.occupied_prob),
+                         logit(self.free_prob), self.huber, self.start_sigma_xy ** 2,
+                         self.start_sigma_th ** 2])
+
+    def motion_floor(self) -> np.ndarray:
+        """Variance floor of the motion model's prediction (m^2, m^2, rad^2)."""
+        return np.array([self.motion_floor_xy ** 2, self.motion_floor_xy ** 2, self.motion_floor_th ** 2])
 
 
 @dataclass(frozen=True)

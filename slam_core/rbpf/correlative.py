@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from slam_core.jit import njit
-from slam_core.rbpf.scan_matcher import _logodds_at
+from slam_core.rbpf.scan_matcher import logodds_at
 
 
 @njit
@@ -35,7 +35,7 @@ def likelihood_window(table, lo, origin_x, origin_y, resolution, cx, cy, half_ce
             kernel[dy + k, dx + k] = np.exp(-d2 / (2.0 * sigma * sigma))
     for j in range(size):
         for i in range(size):
-            if _logodds_at(table, lo, x0 + i, y0 + j) <= occupied_lo:
+            if logodds_at(table, lo, x0 + i, y0 + j) <= occupied_lo:
                 continue
             for dy in range(-k, k + 1):
                 yy = j + dy

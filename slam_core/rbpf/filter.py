@@ -23,8 +23,8 @@ from slam_core.motion_model import decompose
 from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.rbpf.config import RBPFConfig
 from slam_core.rbpf.correlative import likelihood_window, search
-from slam_core.rbpf.proposal import MIN_VARIANCE, improved_proposal
-from slam_core.rbpf.scan_matcher import evaluate_pose, hill_climb
+from slam_core.rbpf.proposal import improved_proposal
+from slam_core.rbpf.scan_matcher import P_OCCUPIED, match, pose_likelihood
 from slam_core.rbpf.tiled_map import TiledMaps
 from slam_core.rbpf.trajectory_tree import ROOT, TrajectoryTree
 from slam_core.resampling import effective_sample_size, low_variance_resample, normalized
@@ -122,7 +122,6 @@ class RBPFSlam:
         m = c.matcher
         n = c.particles
         beams = self._matching_beams(scan, m.max_range, m.max_beams)
-        sample_beams = self._matching_beams(scan, m.max_range, m.sample_beams)
         motion = np.array(decompose(*odom0, *odom1))
         predicted = compose(self.poses, relative(odom0, odom1))
         starts = compose(predicted, self._odometry_error(predicted, motion, scan, beams))
@@ -130,11 +129,10 @@ class RBPFSlam:
         new_poses = np.empty((n, 3))
         log_eta = np.empty(n)
         matched = np.empty(n, np.bool_)
-        search = np.array([m.particle_linear_step, m.particle_angular_step, m.particle_refinements,
-                           m.sample_linear, m.sample_angular, max(1.0, m.min_matched * len(beams))])
         improved_proposal(self.maps.tables, self.maps.lo, self.maps.hits, self.maps.origin[0],
                           self.maps.origin[1], self.maps.resolution, self.poses, starts, motion,
-                          c.motion.alphas, beams, sample_beams, self._params, search, MIN_VARIANCE, noise,
+                          c.motion.alphas, beams, self._params, m.iterations, m.wide_iterations,
+                          max(1.0, m.min_matched * len(beams)), m.motion_floor(), noise,
                           new_poses, log_eta, matched)
         self.poses = new_poses
         log_eta = log_eta / m.gain
@@ -180,30 +178,30 @@ class RBPFSlam:
         maps = self.maps
         lead = int(np.argmax(self.log_weights))
         pred = predicted[lead]
-        table = maps.tables[lead]
         res = maps.resolution
-        fine = (table, maps.lo, maps.hits, maps.origin[0], maps.origin[1], res)
-        climb = (beams, self._params, m.linear_step, m.angular_step, m.refinements)
-        x, y, th, best_score = hill_climb(*fine, pred[0], pred[1], pred[2], *climb)
+        fine = (maps.tables[lead], maps.lo, maps.hits, maps.origin[0], maps.origin[1], res)
+        x, y, th, _, matched = match(*fine, pred[0], pred[1], pred[2], beams, self._params,
+                                     m.iterations, m.wide_iterations)
         best = np.array([x, y, th])
-        _, _, matched = evaluate_pose(*fine, x, y, th, beams, self._params)
         points = self._matching_beams(scan, m.coarse_range, m.coarse_beams)[:, :2]
         if matched >= m.good_match * len(beams) or len(points) == 0:
             return relative(pred, best)
         self.stats.coarse_searches += 1
+        best_ll, _ = pose_likelihood(*fine, x, y, th, beams, self._params)
         turn = abs(motion[0]) + abs(motion[2])
         angular = m.coarse_angular + 0.5 * turn
         linear_cells = m.coarse_linear_cells + int(0.25 * abs(motion[1]) / res)
         half = int(np.ceil(m.coarse_range / res)) + linear_cells + m.coarse_reach_cells
         cx, cy = np.floor((pred[:2] - maps.origin) / res).astype(int)
-        field = likelihood_window(table, maps.lo, maps.origin[0], maps.origin[1], res, cx, cy, half,
-                                  self._params[3], m.coarse_sigma, m.coarse_reach_cells)
+        field = likelihood_window(maps.tables[lead], maps.lo, maps.origin[0], maps.origin[1], res, cx, cy,
+                                  half, self._params[P_OCCUPIED], m.coarse_sigma, m.coarse_reach_cells)
         wx, wy = maps.origin + (np.array([cx, cy]) - half) * res
         sx, sy, sth, _ = search(field, res, wx, wy, pred[0], pred[1], pred[2], points, angular,
                                 m.coarse_angular_step, linear_cells, m.coarse_prior_linear,
                                 m.coarse_prior_angular + 0.5 * turn)
-        x, y, th, score = hill_climb(*fine, sx, sy, sth, *climb)
-        if score > best_score:
+        x, y, th, _, _ = match(*fine, sx, sy, sth, beams, self._params, m.iterations, m.wide_iterations)
+        ll, _ = pose_likelihood(*fine, x, y, th, beams, self._params)
+        if ll > best_ll:
             best = np.array([x, y, th])
         return relative(pred, best)
 

@@ -2,14 +2,23 @@
 
 For each particle ``i`` with pose ``x_{t-1}`` and map ``m``:
 
-1. predict ``x' = x_{t-1} (+) u_t`` from odometry (corrected by the error the
-   coarse search found, :mod:`slam_core.rbpf.correlative`) and scan-match it
-   against ``m`` to ``x*`` (hill climbing, :mod:`slam_core.rbpf.scan_matcher`);
-2. evaluate ``tau_j = p(z_t | m, x_j) p(x_j | x_{t-1}, u_t)`` at the 3 x 3 x 3
-   poses ``x_j`` around ``x*``;
-3. fit a Gaussian: ``mu = sum tau_j x_j / eta``, ``Sigma = sum tau_j (x_j - mu)(x_j - mu)^T / eta``
-   with ``eta = sum tau_j``, and draw ``x_t ~ N(mu, Sigma)``;
-4. multiply the weight by ``eta``.
+1. scan-match from the odometry prediction (corrected by the error found on
+   the leading map, see :meth:`RBPFSlam._odometry_error`) to ``x*``, the mode of
+   the observation likelihood ``p(z_t | m, x)``; Gauss-Newton also gives its
+   information matrix ``H`` (:mod:`slam_core.rbpf.scan_matcher`);
+2. the motion model ``p(x | x_{t-1}, u_t)``, linearised, is a Gaussian
+   ``N(x_p, S)`` around the odometry prediction ``x_p``;
+3. the proposal is their product, a Gaussian with information ``L = H + S^-1``
+   and mean ``mu = x* + L^-1 S^-1 (x_p - x*)``; the new pose is drawn from it;
+4. the weight is multiplied by the normaliser
+   ``eta = integral p(z_t | m, x) p(x | x_{t-1}, u_t) dx``, in closed form for the
+   Gaussian likelihood around ``x*`` (Laplace's method):
+   ``log eta = ll(x*) - log|S| / 2 - log|L| / 2 - (d^T S^-1 d - b^T L^-1 b) / 2``
+   with ``d = x_p - x*`` and ``b = S^-1 d`` (constants dropped).
+
+The paper evaluates the likelihood on a fixed set of poses around ``x*`` to fit
+that Gaussian; the matcher's own information matrix gives it directly, shaped
+by the scene (long along a corridor, tight across it), at no extra cost.
 
 When too few beams match (an unmapped area, a failed match) the particle is
 drawn from the motion model instead and weighted by its observation likelihood.
@@ -22,104 +31,101 @@ from numba import prange
 
 from slam_core.geometry import wrap_scalar
 from slam_core.jit import njit
-from slam_core.motion_model import apply_motion, log_likelihood_one, noise_stds
-from slam_core.rbpf.scan_matcher import evaluate_pose, hill_climb
-
-#: Variance floor of the fitted proposal (m^2, m^2, rad^2).
-MIN_VARIANCE = np.array([1e-6, 1e-6, 1e-7])
+from slam_core.motion_model import apply_motion, noise_stds
+from slam_core.rbpf.scan_matcher import cholesky3, match, pose_likelihood
 
 
 @njit
-def _cholesky3(a):
-    lower = np.zeros((3, 3))
-    for i in range(3):
-        for j in range(i + 1):
-            s = a[i, j]
-            for k in range(j):
-                s -= lower[i, k] * lower[j, k]
-            if i == j:
-                lower[i, i] = np.sqrt(max(s, 1e-18))
-            else:
-                lower[i, j] = s / lower[j, j]
-    return lower
+def inverse3(a):
+    """Inverse of a 3 x 3 matrix (cofactors)."""
+    out = np.empty((3, 3))
+    out[0, 0] = a[1, 1] * a[2, 2] - a[1, 2] * a[2, 1]
+    out[0, 1] = a[0, 2] * a[2, 1] - a[0, 1] * a[2, 2]
+    out[0, 2] = a[0, 1] * a[1, 2] - a[0, 2] * a[1, 1]
+    out[1, 0] = a[1, 2] * a[2, 0] - a[1, 0] * a[2, 2]
+    out[1, 1] = a[0, 0] * a[2, 2] - a[0, 2] * a[2, 0]
+    out[1, 2] = a[0, 2] * a[1, 0] - a[0, 0] * a[1, 2]
+    out[2, 0] = a[1, 0] * a[2, 1] - a[1, 1] * a[2, 0]
+    out[2, 1] = a[0, 1] * a[2, 0] - a[0, 0] * a[2, 1]
+    out[2, 2] = a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0]
+    det = a[0, 0] * out[0, 0] + a[0, 1] * out[1, 0] + a[0, 2] * out[2, 0]
+    return out / det
 
 
 @njit
-def _fit_and_draw(points, log_tau, noise, min_variance):
-    """Gaussian fit of weighted points ``(k, 3)``; returns ``(draw (3,), log eta)``."""
-    top = log_tau.max()
-    w = np.exp(log_tau - top)
-    eta = w.sum()
-    mean = np.zeros(3)
-    for k in range(points.shape[0]):
-        mean += w[k] * points[k]
-    mean /= eta
-    cov = np.zeros((3, 3))
-    for k in range(points.shape[0]):
-        d = points[k] - mean
-        for i in range(3):
-            for j in range(3):
-                cov[i, j] += w[k] * d[i] * d[j]
-    cov /= eta
+def _log_det(a):
+    lower = cholesky3(a)
+    return 2.0 * (np.log(lower[0, 0]) + np.log(lower[1, 1]) + np.log(lower[2, 2]))
+
+
+@njit
+def motion_covariance(th0, rot1, trans, rot2, alphas, floor):
+    """Covariance of the odometry prediction from heading ``th0``, linearised at the mean motion."""
+    s1, st, s2 = noise_stds(rot1, trans, rot2, alphas[0], alphas[1], alphas[2], alphas[3])
+    h = th0 + rot1
+    jac = np.array([[-trans * np.sin(h), np.cos(h), 0.0],
+                    [trans * np.cos(h), np.sin(h), 0.0],
+                    [1.0, 0.0, 1.0]])
+    cov = jac @ np.diag(np.array([s1 * s1, st * st, s2 * s2])) @ jac.T
     for i in range(3):
-        cov[i, i] += min_variance[i]
-    draw = mean + _cholesky3(cov) @ noise
-    return draw, top + np.log(eta)
+        cov[i, i] += floor[i]
+    return cov
+
+
+@njit
+def gaussian_product(x_star, info, x_pred, motion_cov):
+    """``(mean, covariance, log eta)`` of the likelihood around ``x_star`` times the motion Gaussian."""
+    s_inv = inverse3(motion_cov)
+    d = np.empty(3)
+    d[0] = x_pred[0] - x_star[0]
+    d[1] = x_pred[1] - x_star[1]
+    d[2] = wrap_scalar(x_pred[2] - x_star[2])
+    b = s_inv @ d
+    lam = info + s_inv
+    cov = inverse3(lam)
+    shift = cov @ b
+    mean = x_star + shift
+    log_eta = -0.5 * (_log_det(motion_cov) + _log_det(lam) + d @ b - b @ shift)
+    return mean, cov, log_eta
 
 
 @njit(parallel=True)
 def improved_proposal(tables, lo, hits, origin_x, origin_y, resolution, prev, starts, motion, alphas,
-                      beams, sample_beams, params, search, min_variance, noise, out_pose, out_logw,
-                      out_matched):
+                      beams, params, iterations, wide_iterations, min_matched, motion_floor, noise,
+                      out_pose, out_logw, out_matched):
     """Draw every particle's new pose; fills ``out_pose``, ``out_logw`` (log eta), ``out_matched``.
 
     ``starts`` are the poses the matching starts from, ``motion`` is
-    ``(rot1, trans, rot2)`` of the odometry; ``beams`` are matched and
-    ``sample_beams`` score the poses around the match; ``search`` is
-    ``(linear_step, angular_step, refinements, sample_linear, sample_angular, min_matched_beams)``.
+    ``(rot1, trans, rot2)`` of the odometry, ``noise`` standard normal ``(n, 3)``.
     """
     rot1, trans, rot2 = motion[0], motion[1], motion[2]
-    a1, a2, a3, a4 = alphas[0], alphas[1], alphas[2], alphas[3]
     for p in prange(prev.shape[0]):
         table = tables[p]
         x0, y0, th0 = prev[p, 0], prev[p, 1], prev[p, 2]
-        mx, my, mth, _ = hill_climb(table, lo, hits, origin_x, origin_y, resolution,
-                                    starts[p, 0], starts[p, 1], starts[p, 2],
-                                    beams, params, search[0], search[1], int(search[2]))
-        _, _, matched = evaluate_pose(table, lo, hits, origin_x, origin_y, resolution, mx, my, mth,
-                                      beams, params)
-        if matched < search[5]:
-            s1, st, s2 = noise_stds(rot1, trans, rot2, a1, a2, a3, a4)
+        mx, my, mth, info, matched = match(table, lo, hits, origin_x, origin_y, resolution,
+                                           starts[p, 0], starts[p, 1], starts[p, 2], beams, params,
+                                           iterations, wide_iterations)
+        if matched < min_matched:
+            s1, st, s2 = noise_stds(rot1, trans, rot2, alphas[0], alphas[1], alphas[2], alphas[3])
             x, y, th = apply_motion(x0, y0, th0, rot1 + s1 * noise[p, 0], trans + st * noise[p, 1],
                                     rot2 + s2 * noise[p, 2])
-            _, ll, _ = evaluate_pose(table, lo, hits, origin_x, origin_y, resolution, x, y, th,
-                                     sample_beams, params)
+            ll, _ = pose_likelihood(table, lo, hits, origin_x, origin_y, resolution, x, y, th, beams,
+                                    params)
             out_pose[p, 0] = x
             out_pose[p, 1] = y
             out_pose[p, 2] = th
             out_logw[p] = ll
             out_matched[p] = False
             continue
-        points = np.empty((27, 3))
-        log_tau = np.empty(27)
-        k = 0
-        for i in range(-1, 2):
-            for j in range(-1, 2):
-                for a in range(-1, 2):
-                    x = mx + i * search[3]
-                    y = my + j * search[3]
-                    th = mth + a * search[4]
-                    _, ll, _ = evaluate_pose(table, lo, hits, origin_x, origin_y, resolution,
-                                             x, y, th, sample_beams, params)
-                    lm = log_likelihood_one(x0, y0, th0, x, y, th, rot1, trans, rot2, a1, a2, a3, a4)
-                    points[k, 0] = x
-                    points[k, 1] = y
-                    points[k, 2] = th - mth
-                    log_tau[k] = ll + lm
-                    k += 1
-        draw, log_eta = _fit_and_draw(points, log_tau, noise[p], min_variance)
+        ll, _ = pose_likelihood(table, lo, hits, origin_x, origin_y, resolution, mx, my, mth, beams,
+                                params)
+        px, py, pth = apply_motion(x0, y0, th0, rot1, trans, rot2)
+        cov_m = motion_covariance(th0, rot1, trans, rot2, alphas, motion_floor)
+        mean, cov, log_eta = gaussian_product(np.array([mx, my, mth]), info, np.array([px, py, pth]),
+                                              cov_m)
+        draw = mean + cholesky3(cov) @ noise[p]
         out_pose[p, 0] = draw[0]
         out_pose[p, 1] = draw[1]
-        out_pose[p, 2] = wrap_scalar(draw[2] + mth)
-        out_logw[p] = log_eta
+        out_pose[p, 2] = wrap_scalar(draw[2])
+        out_logw[p] = ll + log_eta
         out_matched[p] = True

@@ -1,17 +1,28 @@
-"""Scan matching against one particle's tiled map, compiled with numba.
+"""Scan matching against one particle's tiled map: Gauss-Newton on point-to-line residuals.
 
-A beam's endpoint is scored against the *surface points* of the map: the mean
-endpoint of each occupied cell. Around the endpoint's cell the 3 x 3 kernel is
-searched for an occupied cell whose counterpart 1.5 cells back along the beam is
-free (the beam must arrive from free space; 1.5 rather than 1 so that an
-endpoint on a cell border never finds its own cell again); ``d`` is the distance from the
-endpoint to that cell's surface point. As in GMapping (Grisetti et al. 2007):
+The map's *surface points* are the mean beam endpoints of its occupied cells
+(:mod:`slam_core.rbpf.tiled_map` keeps the sums). For one beam endpoint ``e``:
 
-- the matching score is ``sum_b exp(-d_b^2 / (2 sigma^2))`` over matched beams;
-- the observation log-likelihood is ``sum_b -min(d_b, d_max)^2 / (2 lsigma^2)``.
+- its **correspondence** is the surface point nearest ``e`` among the occupied
+  cells within ``radius`` cells of ``e``'s cell whose counterpart ``FREE_STEP``
+  cells back along the beam is free (the beam must arrive from free space, so a
+  wall is never matched from behind; 1.5 rather than 1 so that an endpoint on a
+  cell border never finds its own cell again);
+- the **local surface** is the principal axis of the surface points of the 3 x 3
+  cells around that correspondence. Where they lie on a line (minor / major
+  spread below ``LINE_RATIO``) the residual ``r`` is the distance from ``e`` to
+  that line (point-to-line, so a scan slides freely along a wall instead of
+  sticking to the cell lattice); elsewhere it is the distance to the point.
 
-The pose maximising the score is found by hill climbing: try a step in +-x,
-+-y, +-theta, take the best improving move, halve the steps when none improves.
+The matcher minimises ``sum_b huber(r_b)`` over the pose by Gauss-Newton, with
+a weak prior on the start pose that only decides directions the scan leaves
+open (a featureless corridor). Its first iterations search correspondences two
+cells wide, the rest one cell. It returns the pose and the information matrix
+``H = sum_b J_b^T J_b / lsigma^2`` of the observation likelihood there.
+
+The observation log-likelihood of a pose is ``sum_b -min(r_b, d_max)^2 / (2 lsigma^2)``
+(a beam with no correspondence counts as ``d_max`` off), the truncated Gaussian
+beam model of GMapping (Grisetti et al. 2007).
 """
 
 from __future__ import annotations
@@ -23,6 +34,13 @@ from slam_core.rbpf.tiled_map import HIT_N, HIT_X, HIT_Y, TILE, TILE_BITS
 
 #: How far (in cells) behind a beam's endpoint its free-space check looks.
 FREE_STEP = 1.5
+#: Surface points whose minor / major spread is below this lie on a line.
+LINE_RATIO = 0.1
+#: Fewer surface points than this around a correspondence give no line.
+LINE_MIN_POINTS = 3
+
+# Indices into the parameter array built by MatcherParams.packed().
+P_LSIGMA2, P_DMAX2, P_OCCUPIED, P_FREE, P_HUBER, P_PRIOR_XY, P_PRIOR_TH = range(7)
 
 
 @njit
@@ -37,7 +55,8 @@ def _tile_of(table, ix, iy):
 
 
 @njit
-def _logodds_at(table, lo, ix, iy):
+def logodds_at(table, lo, ix, iy):
+    """Log-odds of cell ``(ix, iy)``; 0 (unknown) outside the map's tiles."""
     t = _tile_of(table, ix, iy)
     if t < 0:
         return 0.0
@@ -45,12 +64,28 @@ def _logodds_at(table, lo, ix, iy):
 
 
 @njit
-def beam_distance2(table, lo, hits, origin_x, origin_y, resolution, ex, ey, fx, fy,
-                   occupied_lo, free_lo):
-    """Squared distance from endpoint ``(ex, ey)`` to the nearest surface point; inf if none.
+def surface_point(table, lo, hits, origin_x, origin_y, resolution, ix, iy, occupied_lo):
+    """``(found, x, y)``: the mean endpoint of cell ``(ix, iy)`` if the cell is occupied."""
+    t = _tile_of(table, ix, iy)
+    if t < 0:
+        return False, 0.0, 0.0
+    ly = iy & (TILE - 1)
+    lx = ix & (TILE - 1)
+    n = hits[t, ly, lx, HIT_N]
+    if lo[t, ly, lx] <= occupied_lo or n <= 0.0:
+        return False, 0.0, 0.0
+    return (True, origin_x + ix * resolution + hits[t, ly, lx, HIT_X] / n,
+            origin_y + iy * resolution + hits[t, ly, lx, HIT_Y] / n)
+
+
+@njit
+def correspondence(table, lo, hits, origin_x, origin_y, resolution, ex, ey, fx, fy,
+                   occupied_lo, free_lo, radius):
+    """``(d2, ix, iy, sx, sy)``: the nearest admissible surface point to endpoint ``(ex, ey)``.
 
     ``(fx, fy)`` is the point ``FREE_STEP`` cells back along the beam; a candidate cell
-    counts only if the cell at the same offset from the free point is free.
+    counts only if the cell at the same offset from the free point is free. ``d2`` is
+    ``inf`` when no cell within ``radius`` qualifies.
     """
     inv = 1.0 / resolution
     ix = int(np.floor((ex - origin_x) * inv))
@@ -58,103 +93,198 @@ def beam_distance2(table, lo, hits, origin_x, origin_y, resolution, ex, ey, fx, 
     fix = int(np.floor((fx - origin_x) * inv))
     fiy = int(np.floor((fy - origin_y) * inv))
     best = np.inf
-    for dy in range(-1, 2):
-        for dx in range(-1, 2):
-            cx = ix + dx
-            cy = iy + dy
-            t = _tile_of(table, cx, cy)
-            if t < 0:
+    bx, by, bsx, bsy = 0, 0, 0.0, 0.0
+    for dy in range(-radius, radius + 1):
+        for dx in range(-radius, radius + 1):
+            found, sx, sy = surface_point(table, lo, hits, origin_x, origin_y, resolution,
+                                          ix + dx, iy + dy, occupied_lo)
+            if not found or logodds_at(table, lo, fix + dx, fiy + dy) >= free_lo:
                 continue
-            ly = cy & (TILE - 1)
-            lx = cx & (TILE - 1)
-            if lo[t, ly, lx] <= occupied_lo:
-                continue
-            if _logodds_at(table, lo, fix + dx, fiy + dy) >= free_lo:
-                continue
-            n = hits[t, ly, lx, HIT_N]
-            if n <= 0.0:
-                continue
-            mx = origin_x + cx * resolution + hits[t, ly, lx, HIT_X] / n
-            my = origin_y + cy * resolution + hits[t, ly, lx, HIT_Y] / n
-            d2 = (ex - mx) * (ex - mx) + (ey - my) * (ey - my)
+            d2 = (ex - sx) * (ex - sx) + (ey - sy) * (ey - sy)
             if d2 < best:
                 best = d2
-    return best
+                bx, by, bsx, bsy = ix + dx, iy + dy, sx, sy
+    return best, bx, by, bsx, bsy
 
 
 @njit
-def evaluate_pose(table, lo, hits, origin_x, origin_y, resolution, x, y, th, beams, params):
-    """``(score, log_likelihood, matched)`` of a pose.
+def local_line(table, lo, hits, origin_x, origin_y, resolution, ix, iy, occupied_lo):
+    """``(is_line, nx, ny, cx, cy)``: unit normal and centroid of the surface around cell ``(ix, iy)``."""
+    n = 0
+    sx = 0.0
+    sy = 0.0
+    sxx = 0.0
+    sxy = 0.0
+    syy = 0.0
+    for dy in range(-1, 2):
+        for dx in range(-1, 2):
+            found, px, py = surface_point(table, lo, hits, origin_x, origin_y, resolution,
+                                          ix + dx, iy + dy, occupied_lo)
+            if found:
+                n += 1
+                sx += px
+                sy += py
+                sxx += px * px
+                sxy += px * py
+                syy += py * py
+    if n < LINE_MIN_POINTS:
+        return False, 0.0, 0.0, 0.0, 0.0
+    cx = sx / n
+    cy = sy / n
+    a = sxx / n - cx * cx
+    b = sxy / n - cx * cy
+    c = syy / n - cy * cy
+    half_trace = 0.5 * (a + c)
+    disc = np.sqrt(max(half_trace * half_trace - (a * c - b * b), 0.0))
+    major = half_trace + disc
+    minor = half_trace - disc
+    if major <= 0.0 or minor > LINE_RATIO * major:
+        return False, 0.0, 0.0, 0.0, 0.0
+    angle = 0.5 * np.arctan2(2.0 * b, a - c)  # direction of the major axis
+    return True, -np.sin(angle), np.cos(angle), cx, cy
 
-    ``beams`` rows are ``(px, py, ux, uy)``: endpoint and unit direction in the
-    robot frame. ``params`` is the array built by :class:`MatcherParams`.
+
+@njit
+def _residual(table, lo, hits, origin_x, origin_y, resolution, c, s, x, y, beam, params, radius, jac):
+    """Residual(s) of one beam at pose ``(x, y, atan2(s, c))``.
+
+    Returns ``(rows, r0, r1, d2)``: 0 rows when unmatched, 1 (point-to-line, ``r0``,
+    Jacobian in ``jac[0]``) or 2 (point-to-point, ``r0, r1``, ``jac[0], jac[1]``);
+    ``d2`` is the squared residual length.
     """
-    sigma2, lsigma2, dmax2, occupied_lo, free_lo = params[0], params[1], params[2], params[3], params[4]
+    px = beam[0]
+    py = beam[1]
+    rx = c * px - s * py
+    ry = s * px + c * py
+    ex = x + rx
+    ey = y + ry
+    back = FREE_STEP * resolution
+    fx = ex - back * (c * beam[2] - s * beam[3])
+    fy = ey - back * (s * beam[2] + c * beam[3])
+    d2, ix, iy, sx, sy = correspondence(table, lo, hits, origin_x, origin_y, resolution, ex, ey, fx, fy,
+                                        params[P_OCCUPIED], params[P_FREE], radius)
+    if d2 == np.inf:
+        return 0, 0.0, 0.0, d2
+    is_line, nx, ny, cx, cy = local_line(table, lo, hits, origin_x, origin_y, resolution, ix, iy,
+                                         params[P_OCCUPIED])
+    if is_line:
+        r = nx * (ex - cx) + ny * (ey - cy)
+        jac[0, 0] = nx
+        jac[0, 1] = ny
+        jac[0, 2] = -nx * ry + ny * rx
+        return 1, r, 0.0, r * r
+    jac[0, 0] = 1.0
+    jac[0, 1] = 0.0
+    jac[0, 2] = -ry
+    jac[1, 0] = 0.0
+    jac[1, 1] = 1.0
+    jac[1, 2] = rx
+    return 2, ex - sx, ey - sy, d2
+
+
+@njit
+def pose_likelihood(table, lo, hits, origin_x, origin_y, resolution, x, y, th, beams, params):
+    """``(log_likelihood, matched)`` of a pose: the truncated Gaussian beam model."""
     c = np.cos(th)
     s = np.sin(th)
-    back = FREE_STEP * resolution
-    score = 0.0
+    jac = np.empty((2, 3))
+    dmax2 = params[P_DMAX2]
     loglik = 0.0
     matched = 0
     for b in range(beams.shape[0]):
-        px = beams[b, 0]
-        py = beams[b, 1]
-        ex = x + c * px - s * py
-        ey = y + s * px + c * py
-        fx = ex - back * (c * beams[b, 2] - s * beams[b, 3])
-        fy = ey - back * (s * beams[b, 2] + c * beams[b, 3])
-        d2 = beam_distance2(table, lo, hits, origin_x, origin_y, resolution, ex, ey, fx, fy,
-                            occupied_lo, free_lo)
-        if d2 < np.inf:
-            score += np.exp(-d2 / (2.0 * sigma2))
+        rows, _, _, d2 = _residual(table, lo, hits, origin_x, origin_y, resolution, c, s, x, y, beams[b],
+                                   params, 1, jac)
+        if rows > 0:
             matched += 1
-            loglik -= min(d2, dmax2) / (2.0 * lsigma2)
-        else:
-            loglik -= dmax2 / (2.0 * lsigma2)
-    return score, loglik, matched
+        loglik -= min(d2, dmax2)
+    return loglik / (2.0 * params[P_LSIGMA2]), matched
 
 
 @njit
-def hill_climb(table, lo, hits, origin_x, origin_y, resolution, x, y, th, beams, params,
-               linear_step, angular_step, refinements):
-    """Local search for the pose of highest score; returns ``(x, y, th, score)``."""
-    best, _, _ = evaluate_pose(table, lo, hits, origin_x, origin_y, resolution, x, y, th, beams, params)
-    done = 0
-    while done < refinements:
-        move_x = 0.0
-        move_y = 0.0
-        move_th = 0.0
-        improved = False
-        for m in range(6):
-            cx = x
-            cy = y
-            cth = th
-            if m == 0:
-                cx += linear_step
-            elif m == 1:
-                cx -= linear_step
-            elif m == 2:
-                cy += linear_step
-            elif m == 3:
-                cy -= linear_step
-            elif m == 4:
-                cth += angular_step
+def _solve3(a, b):
+    """``a^-1 b`` for a symmetric positive definite 3 x 3 ``a`` (Cholesky)."""
+    lower = cholesky3(a)
+    z = np.empty(3)
+    for i in range(3):
+        v = b[i]
+        for k in range(i):
+            v -= lower[i, k] * z[k]
+        z[i] = v / lower[i, i]
+    out = np.empty(3)
+    for i in range(2, -1, -1):
+        v = z[i]
+        for k in range(i + 1, 3):
+            v -= lower[k, i] * out[k]
+        out[i] = v / lower[i, i]
+    return out
+
+
+@njit
+def cholesky3(a):
+    """Lower Cholesky factor of a symmetric positive (semi-)definite 3 x 3 matrix."""
+    lower = np.zeros((3, 3))
+    for i in range(3):
+        for j in range(i + 1):
+            v = a[i, j]
+            for k in range(j):
+                v -= lower[i, k] * lower[j, k]
+            if i == j:
+                lower[i, i] = np.sqrt(max(v, 1e-18))
             else:
-                cth -= angular_step
-            sc, _, _ = evaluate_pose(table, lo, hits, origin_x, origin_y, resolution, cx, cy, cth,
-                                     beams, params)
-            if sc > best:
-                best = sc
-                move_x = cx
-                move_y = cy
-                move_th = cth
-                improved = True
-        if improved:
-            x = move_x
-            y = move_y
-            th = move_th
-        else:
-            linear_step *= 0.5
-            angular_step *= 0.5
-            done += 1
-    return x, y, th, best
+                lower[i, j] = v / lower[j, j]
+    return lower
+
+
+@njit
+def match(table, lo, hits, origin_x, origin_y, resolution, x, y, th, beams, params, iterations,
+          wide_iterations):
+    """Gauss-Newton from ``(x, y, th)``; returns ``(x, y, th, info (3, 3), matched)``.
+
+    ``info`` is the observation likelihood's information matrix at the result (without
+    the start prior); ``matched`` counts beams with a correspondence in the last pass.
+    """
+    sx0 = x
+    sy0 = y
+    sth0 = th
+    huber = params[P_HUBER]
+    prior_xy = 1.0 / params[P_PRIOR_XY]
+    prior_th = 1.0 / params[P_PRIOR_TH]
+    inv_l2 = 1.0 / params[P_LSIGMA2]
+    jac = np.empty((2, 3))
+    info = np.zeros((3, 3))
+    matched = 0
+    for it in range(iterations):
+        radius = 2 if it < wide_iterations else 1
+        c = np.cos(th)
+        s = np.sin(th)
+        info[:, :] = 0.0
+        grad = np.zeros(3)
+        matched = 0
+        for b in range(beams.shape[0]):
+            rows, r0, r1, d2 = _residual(table, lo, hits, origin_x, origin_y, resolution, c, s, x, y,
+                                         beams[b], params, radius, jac)
+            if rows == 0:
+                continue
+            matched += 1
+            length = np.sqrt(d2)
+            w = inv_l2 if length <= huber else inv_l2 * huber / length
+            for k in range(rows):
+                r = r0 if k == 0 else r1
+                for i in range(3):
+                    grad[i] += w * jac[k, i] * r
+                    for j in range(3):
+                        info[i, j] += w * jac[k, i] * jac[k, j]
+        system = info.copy()
+        system[0, 0] += prior_xy
+        system[1, 1] += prior_xy
+        system[2, 2] += prior_th
+        grad[0] += prior_xy * (x - sx0)
+        grad[1] += prior_xy * (y - sy0)
+        grad[2] += prior_th * (th - sth0)
+        step = _solve3(system, grad)
+        x -= step[0]
+        y -= step[1]
+        th -= step[2]
+        if it >= wide_iterations and abs(step[0]) + abs(step[1]) < 1e-4 and abs(step[2]) < 1e-4:
+            break
+    return x, y, th, info, matched
