@@ -23,8 +23,11 @@ class MatcherParams:
     ``max_beams``: beams used (evenly spread) up to ``max_range``;
     ``min_matched``: the fraction of them that must match, else the particle
     falls back to the motion model; ``good_match``: the matched fraction above
-    which the leading particle's match from the bare prediction is trusted
-    without the coarse search; ``motion_floor_xy`` / ``motion_floor_th``: the
+    which the leading particle's match is trusted without the coarse search;
+    ``lead_rotations`` / ``lead_rotation_step``: the leading particle is matched
+    from its prediction turned by ``k * lead_rotation_step`` for
+    ``|k| <= lead_rotations`` and keeps the likeliest result (the odometry's
+    worst errors are in heading); ``motion_floor_xy`` / ``motion_floor_th``: the
     least spread (m, rad) of the motion model's prediction in the proposal.
     ``gain`` tempers the weights: a particle's weight is multiplied by
     ``eta ** (1 / gain)``, because beams are far from independent (GMapping
@@ -52,6 +55,8 @@ class MatcherParams:
     max_range: float = 20.0
     min_matched: float = 0.25
     good_match: float = 0.6
+    lead_rotations: int = 3
+    lead_rotation_step: float = 0.04
     motion_floor_xy: float = 0.01
     motion_floor_th: float = 0.005
     occupied_prob: float = 0.6

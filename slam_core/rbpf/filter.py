@@ -180,14 +180,17 @@ class RBPFSlam:
         pred = predicted[lead]
         res = maps.resolution
         fine = (maps.tables[lead], maps.lo, maps.hits, maps.origin[0], maps.origin[1], res)
-        x, y, th, _, matched = match(*fine, pred[0], pred[1], pred[2], beams, self._params,
-                                     m.iterations, m.wide_iterations)
-        best = np.array([x, y, th])
+        best, best_ll, matched = None, -np.inf, 0
+        for offset in m.lead_rotation_step * np.arange(-m.lead_rotations, m.lead_rotations + 1):
+            x, y, th, _, n = match(*fine, pred[0], pred[1], pred[2] + offset, beams, self._params,
+                                   m.iterations, m.wide_iterations)
+            ll, _ = pose_likelihood(*fine, x, y, th, beams, self._params)
+            if ll > best_ll:
+                best, best_ll, matched = np.array([x, y, th]), ll, n
         points = self._matching_beams(scan, m.coarse_range, m.coarse_beams)[:, :2]
         if matched >= m.good_match * len(beams) or len(points) == 0:
             return relative(pred, best)
         self.stats.coarse_searches += 1
-        best_ll, _ = pose_likelihood(*fine, x, y, th, beams, self._params)
         turn = abs(motion[0]) + abs(motion[2])
         angular = m.coarse_angular + 0.5 * turn
         linear_cells = m.coarse_linear_cells + int(0.25 * abs(motion[1]) / res)
