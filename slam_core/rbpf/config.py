@@ -27,8 +27,12 @@ class MatcherParams:
     ``lead_rotations`` / ``lead_rotation_step``: the leading particle is matched
     from its prediction turned by ``k * lead_rotation_step`` for
     ``|k| <= lead_rotations`` and keeps the likeliest result (the odometry's
-    worst errors are in heading); ``motion_floor_xy`` / ``motion_floor_th``: the
-    least spread (m, rad) of the motion model's prediction in the proposal.
+    worst errors are in heading); ``check_beams`` / ``mismatch_drop``: between
+    updates, each scan is checked with that many beams against the leading
+    map from the odometry's prediction, and forces an update when the fraction
+    of them that match is more than ``mismatch_drop`` below the last update's;
+    ``motion_floor_xy`` / ``motion_floor_th``: the least spread (m, rad) of the
+    motion model's prediction in the proposal.
     ``gain`` tempers the weights: a particle's weight is multiplied by
     ``eta ** (1 / gain)``, because beams are far from independent (GMapping
     divides by ogain times the particle count).
@@ -56,6 +60,8 @@ class MatcherParams:
     min_matched: float = 0.25
     good_match: float = 0.6
     lead_rotations: int = 3
+    check_beams: int = 60
+    mismatch_drop: float = 0.15
     lead_rotation_step: float = 0.04
     motion_floor_xy: float = 0.01
     motion_floor_th: float = 0.005

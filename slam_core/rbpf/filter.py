@@ -41,6 +41,7 @@ class RBPFStats:
     matched: int = 0
     fallbacks: int = 0
     coarse_searches: int = 0
+    forced_updates: int = 0
     last_neff: float = 0.0
 
     def as_dict(self) -> dict:
@@ -65,6 +66,7 @@ class RBPFSlam:
         self.stats = RBPFStats()
         self.update_odometry: list[np.ndarray] = []
         self._last_odom: np.ndarray | None = None
+        self._last_fit = 0.0
         self._params = self.config.matcher.packed()
 
     # -- the estimator interface --------------------------------------------------
@@ -79,7 +81,9 @@ class RBPFSlam:
         moved = relative(self._last_odom, odometry)
         c = self.config
         if np.hypot(moved[0], moved[1]) < c.linear_update and abs(moved[2]) < c.angular_update:
-            return False
+            if not self._scan_disagrees(moved, scan):
+                return False
+            self.stats.forced_updates += 1
         self._update(self._last_odom, odometry, scan)
         return True
 
@@ -146,6 +150,7 @@ class RBPFSlam:
         self.stats.last_neff = neff
         if neff < c.resample_threshold * n:
             self._resample()
+        self._last_fit = self._fit(self.poses[int(np.argmax(self.log_weights))], beams)
         self.maps.integrate(self.poses, scan)
         self._finish_update(odom1)
 
@@ -163,6 +168,26 @@ class RBPFSlam:
         self.update_odometry.append(odometry.copy())
         self._last_odom = odometry.copy()
         self.stats.updates += 1
+
+    def _fit(self, pose: np.ndarray, beams: np.ndarray) -> float:
+        """Fraction of ``beams`` that find a surface on the leading map from ``pose``."""
+        if len(beams) == 0:
+            return 0.0
+        lead = int(np.argmax(self.log_weights))
+        maps = self.maps
+        _, matched = pose_likelihood(maps.tables[lead], maps.lo, maps.hits, maps.origin[0], maps.origin[1],
+                                     maps.resolution, pose[0], pose[1], pose[2], beams, self._params)
+        return matched / len(beams)
+
+    def _scan_disagrees(self, moved: np.ndarray, scan: Scan) -> bool:
+        """True when the scan, seen from the odometry's prediction, fits the leading map much
+        worse than the last update's scan did: the odometry missed a motion (wheels that slip
+        or report late), so the filter must update before the travel thresholds say so."""
+        m = self.config.matcher
+        lead = int(np.argmax(self.log_weights))
+        predicted = compose(self.poses[lead], moved)
+        fit = self._fit(predicted, self._matching_beams(scan, m.max_range, m.check_beams))
+        return fit < self._last_fit - m.mismatch_drop
 
     def _odometry_error(self, predicted: np.ndarray, motion: np.ndarray, scan: Scan,
                         beams: np.ndarray) -> np.ndarray:
