@@ -70,9 +70,14 @@ class EkfConfig:
     reject_ambiguous: bool = False  # drop observations with two landmarks in their gate
     scan_matching: bool = False  # refine each odometry increment by scan-to-scan ICP
     scan_match_gate: float = 16.27  # chi-square 3 dof, 0.999: ICP further from the odometry is refused
+    scan_match_fuse: bool = True  # fuse ICP with the odometry; False: ICP replaces it when it converges
+    keyframe_distance: float = 0.0  # match against a key scan until the robot moved this far (m) ...
+    keyframe_turn: float = 0.0  # ... or turned this much (rad); 0: against the last update's scan
     icp: IcpConfig = field(default_factory=IcpConfig)
     line_point_sigma: float = 0.02  # floor on the scatter (m) of scan points about a wall line
     line_effective_points: int = 20  # a wall fit counts as at most this many independent points
+    line_angle_sigma: float = np.radians(1.0)  # model error of a wall line, added to the fit's (rad) ...
+    line_distance_sigma: float = 0.03  # ... and (m): walls are not perfectly straight nor one plane
     line_overlap_margin: float = 0.5  # a line observation must overlap the landmark's extent + this (m)
     line_tentative_angle: float = np.radians(5.0)  # a tentative line is the same within these ...
     line_tentative_distance: float = 0.15  # ... and this distance (m)
@@ -90,6 +95,18 @@ def _segment_ends(lines, extents) -> np.ndarray:
     d = np.column_stack([-n[:, 1], n[:, 0]])
     foot = lines[:, :1] * n
     return np.stack([foot + extents[:, :1] * d, foot + extents[:, 1:] * d], axis=1)
+
+
+def _left_jacobian(a, b, eps: float = 1e-6) -> np.ndarray:
+    """Derivative of ``a⁻¹ ⊕ b`` by ``b`` (3 x 3)."""
+    out = np.empty((3, 3))
+    for k in range(3):
+        d = np.zeros(3)
+        d[k] = eps
+        diff = compose(inverse(a), b + d) - compose(inverse(a), b - d)
+        diff[2] = wrap_angle(diff[2])
+        out[:, k] = diff / (2 * eps)
+    return out
 
 
 def _conjugation_jacobian(offset, u, eps: float = 1e-6) -> np.ndarray:
@@ -130,6 +147,8 @@ class EkfSlam:
         self.updates = 0
         self._filter_odom: np.ndarray | None = None
         self._last_scan: Scan | None = None
+        self._key_scan: Scan | None = None
+        self._key_to_last = np.zeros(3)  # laser motion from the key scan to the last update's scan
         self.icp_failures = 0
         self._odom: np.ndarray | None = None
         self.landmark_kinds = np.zeros(0, dtype=int)  # SPIKE / CORNER per landmark
@@ -165,24 +184,46 @@ class EkfSlam:
         return True
 
     def _scan_matched(self, u, q, scan):
-        """The odometry increment fused with ICP of the last update's scan against this one.
+        """The odometry increment fused with ICP of the key scan against this one.
 
-        ICP runs in the laser frame; its increment and covariance are carried to the robot
-        frame (``offset ⊕ u_laser ⊖ offset``, a fixed linear map of small perturbations) and
-        fused with the odometry by information weight (:func:`fuse_increments`).
+        ICP runs in the laser frame against the key scan (the last update's scan unless
+        ``keyframe_distance`` / ``keyframe_turn`` keep an older one, so that match errors add
+        up once per key scan rather than once per update); the increment since the last update
+        is ``key_to_last⁻¹ ⊕ key_to_now``. It and its covariance are carried to the robot frame
+        (``offset ⊕ u_laser ⊖ offset``, a fixed linear map of small perturbations) and fused
+        with the odometry by information weight (:func:`fuse_increments`).
         """
-        offset = np.asarray(self.config.laser_offset, float)
-        guess = compose(compose(inverse(offset), u), offset)
-        result = match_scans(self._last_scan, scan, guess, self.config.icp)
+        cfg = self.config
+        offset = np.asarray(cfg.laser_offset, float)
+        laser_u = compose(compose(inverse(offset), u), offset)
+        key = self._key_scan if self._key_scan is not None else self._last_scan
+        key_to_last = self._key_to_last if self._key_scan is not None else np.zeros(3)
+        result = match_scans(key, scan, compose(key_to_last, laser_u), cfg.icp)
         if not result.converged:
             self.icp_failures += 1
+            self._new_key(scan)
             return u, q
-        to_robot = _conjugation_jacobian(offset, result.increment)
-        u_scan = compose(compose(offset, result.increment), inverse(offset))
-        fused, q_fused, agreed = fuse_increments(u, q, u_scan, to_robot @ result.covariance @ to_robot.T,
-                                                 self.config.scan_match_gate)
+        laser_inc = compose(inverse(key_to_last), result.increment)
+        # the increment's covariance: key_to_last held fixed, key_to_now varies
+        along = _left_jacobian(key_to_last, result.increment)
+        to_robot = _conjugation_jacobian(offset, laser_inc) @ along
+        u_scan = compose(compose(offset, laser_inc), inverse(offset))
+        q_scan = to_robot @ result.covariance @ to_robot.T
+        if cfg.scan_match_fuse:
+            fused, q_fused, agreed = fuse_increments(u, q, u_scan, q_scan, cfg.scan_match_gate)
+        else:
+            fused, q_fused, agreed = u_scan, q_scan, True
         self.icp_failures += not agreed
+        key_to_now = compose(key_to_last, compose(compose(inverse(offset), fused), offset))
+        if (not agreed or np.hypot(*key_to_now[:2]) >= cfg.keyframe_distance
+                or abs(key_to_now[2]) >= cfg.keyframe_turn):
+            self._new_key(scan)
+        else:
+            self._key_scan, self._key_to_last = key, key_to_now
         return fused, q_fused
+
+    def _new_key(self, scan: Scan) -> None:
+        self._key_scan, self._key_to_last = scan, np.zeros(3)
 
     @property
     def pose(self) -> np.ndarray:
@@ -229,7 +270,10 @@ class EkfSlam:
         cfg = self.config
         offset = np.asarray(cfg.laser_offset, float)
         segments = [transform_points(offset, seg) for seg in line_segments(scan, cfg.extractor)]
-        return fit_lines(segments, cfg.line_point_sigma, cfg.line_effective_points)
+        lines = fit_lines(segments, cfg.line_point_sigma, cfg.line_effective_points)
+        lines.covariances[:, 0, 0] += cfg.line_distance_sigma ** 2
+        lines.covariances[:, 1, 1] += cfg.line_angle_sigma ** 2
+        return lines
 
     def _line_compatible(self, ends_world: np.ndarray) -> np.ndarray:
         """``(n_obs, k)``: line observations (world end points) overlapping line landmarks' extents."""
