@@ -1,6 +1,8 @@
 """Landmark EKF SLAM: the classic cycle, one scan at a time.
 
-1. odometry update: the pose moves by the odometry increment (:meth:`EkfState.predict`);
+1. motion update: the pose moves by the increment since the last update (:meth:`EkfState.predict`):
+   scan-to-scan ICP started from the odometry increment, with the ICP's Hessian covariance,
+   or the odometry increment and the motion model's covariance when the match fails;
 2. landmark extraction: spikes, corners and wall lines of the scan (:mod:`slam_core.ekf.landmarks`);
 3. data association: chi-square gate + nearest neighbour (:mod:`slam_core.ekf.association`);
    a line observation may only match a line landmark whose mapped extent it overlaps;
@@ -68,11 +70,9 @@ class EkfConfig:
     update_rotation: float = 0.05
     direction_tolerance: float = np.radians(40.0)  # corners facing further apart are different
     reject_ambiguous: bool = False  # drop observations with two landmarks in their gate
-    scan_matching: bool = False  # refine each odometry increment by scan-to-scan ICP
-    scan_match_gate: float = 16.27  # chi-square 3 dof, 0.999: ICP further from the odometry is refused
-    scan_match_fuse: bool = True  # fuse ICP with the odometry; False: ICP replaces it when it converges
-    keyframe_distance: float = 0.0  # match against a key scan until the robot moved this far (m) ...
-    keyframe_turn: float = 0.0  # ... or turned this much (rad); 0: against the last update's scan
+    scan_matching: bool = True  # the increment from scan-to-scan ICP (odometry as its guess)
+    scan_match_gate: float = 16.27  # chi-square 3 dof, 0.999: with fusion, ICP this far off is refused
+    scan_match_fuse: bool = False  # fuse ICP with the odometry; False: ICP replaces it when it converges
     icp: IcpConfig = field(default_factory=IcpConfig)
     line_point_sigma: float = 0.02  # floor on the scatter (m) of scan points about a wall line
     line_effective_points: int = 20  # a wall fit counts as at most this many independent points
@@ -95,18 +95,6 @@ def _segment_ends(lines, extents) -> np.ndarray:
     d = np.column_stack([-n[:, 1], n[:, 0]])
     foot = lines[:, :1] * n
     return np.stack([foot + extents[:, :1] * d, foot + extents[:, 1:] * d], axis=1)
-
-
-def _left_jacobian(a, b, eps: float = 1e-6) -> np.ndarray:
-    """Derivative of ``a⁻¹ ⊕ b`` by ``b`` (3 x 3)."""
-    out = np.empty((3, 3))
-    for k in range(3):
-        d = np.zeros(3)
-        d[k] = eps
-        diff = compose(inverse(a), b + d) - compose(inverse(a), b - d)
-        diff[2] = wrap_angle(diff[2])
-        out[:, k] = diff / (2 * eps)
-    return out
 
 
 def _conjugation_jacobian(offset, u, eps: float = 1e-6) -> np.ndarray:
@@ -147,8 +135,6 @@ class EkfSlam:
         self.updates = 0
         self._filter_odom: np.ndarray | None = None
         self._last_scan: Scan | None = None
-        self._key_scan: Scan | None = None
-        self._key_to_last = np.zeros(3)  # laser motion from the key scan to the last update's scan
         self.icp_failures = 0
         self._odom: np.ndarray | None = None
         self.landmark_kinds = np.zeros(0, dtype=int)  # SPIKE / CORNER per landmark
@@ -184,46 +170,34 @@ class EkfSlam:
         return True
 
     def _scan_matched(self, u, q, scan):
-        """The odometry increment fused with ICP of the key scan against this one.
+        """The increment from ICP of the last update's scan against this one, or the odometry's.
 
-        ICP runs in the laser frame against the key scan (the last update's scan unless
-        ``keyframe_distance`` / ``keyframe_turn`` keep an older one, so that match errors add
-        up once per key scan rather than once per update); the increment since the last update
-        is ``key_to_last⁻¹ ⊕ key_to_now``. It and its covariance are carried to the robot frame
-        (``offset ⊕ u_laser ⊖ offset``, a fixed linear map of small perturbations) and fused
-        with the odometry by information weight (:func:`fuse_increments`).
+        ICP starts from the odometry increment and runs in the laser frame; its increment and
+        Hessian covariance are carried to the robot frame (``offset ⊕ u_laser ⊖ offset``, a
+        fixed linear map of small perturbations). By default a converged match replaces the
+        odometry: on real logs the odometry's errors are far from the white noise a fusion
+        assumes (mit-csail's wheel heading lags the scans in every turn, by up to 15 degrees
+        per update), so mixing them in biases the increment, and a chi-square gate against
+        the odometry refuses good matches exactly in those turns; the match's own limits
+        (:class:`IcpConfig` ``max_step_change``, ``max_turn_change``) guard against a bad one.
+        ``scan_match_fuse`` fuses the two by information weight instead (:func:`fuse_increments`,
+        refusing matches further than ``scan_match_gate`` from the odometry).
         """
         cfg = self.config
         offset = np.asarray(cfg.laser_offset, float)
-        laser_u = compose(compose(inverse(offset), u), offset)
-        key = self._key_scan if self._key_scan is not None else self._last_scan
-        key_to_last = self._key_to_last if self._key_scan is not None else np.zeros(3)
-        result = match_scans(key, scan, compose(key_to_last, laser_u), cfg.icp)
+        guess = compose(compose(inverse(offset), u), offset)
+        result = match_scans(self._last_scan, scan, guess, cfg.icp)
         if not result.converged:
             self.icp_failures += 1
-            self._new_key(scan)
             return u, q
-        laser_inc = compose(inverse(key_to_last), result.increment)
-        # the increment's covariance: key_to_last held fixed, key_to_now varies
-        along = _left_jacobian(key_to_last, result.increment)
-        to_robot = _conjugation_jacobian(offset, laser_inc) @ along
-        u_scan = compose(compose(offset, laser_inc), inverse(offset))
+        to_robot = _conjugation_jacobian(offset, result.increment)
+        u_scan = compose(compose(offset, result.increment), inverse(offset))
         q_scan = to_robot @ result.covariance @ to_robot.T
-        if cfg.scan_match_fuse:
-            fused, q_fused, agreed = fuse_increments(u, q, u_scan, q_scan, cfg.scan_match_gate)
-        else:
-            fused, q_fused, agreed = u_scan, q_scan, True
+        if not cfg.scan_match_fuse:
+            return u_scan, q_scan
+        fused, q_fused, agreed = fuse_increments(u, q, u_scan, q_scan, cfg.scan_match_gate)
         self.icp_failures += not agreed
-        key_to_now = compose(key_to_last, compose(compose(inverse(offset), fused), offset))
-        if (not agreed or np.hypot(*key_to_now[:2]) >= cfg.keyframe_distance
-                or abs(key_to_now[2]) >= cfg.keyframe_turn):
-            self._new_key(scan)
-        else:
-            self._key_scan, self._key_to_last = key, key_to_now
         return fused, q_fused
-
-    def _new_key(self, scan: Scan) -> None:
-        self._key_scan, self._key_to_last = scan, np.zeros(3)
 
     @property
     def pose(self) -> np.ndarray:
