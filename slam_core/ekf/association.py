@@ -44,7 +44,8 @@ def predicted_innovation_covariances(state: EkfState) -> tuple[np.ndarray, np.nd
     z, h_pose, h_lm = observe_many(pose, landmarks)
     lines = state.lines
     if lines.any():
-        z[lines], h_pose[lines], h_lm[lines] = observe_lines_many(pose, landmarks[lines])
+        z[lines], h_pose[lines], h_lm[lines] = observe_lines_many(pose, landmarks[lines],
+                                                                       state.anchors[lines])
     p = state.cov
     idx = POSE + 2 * np.arange(k)
     p_rr = p[:POSE, :POSE]

@@ -88,12 +88,13 @@ def _ends_to_world(pose, ends) -> np.ndarray:
     return transform_points(pose, np.asarray(ends, float).reshape(-1, 2)).reshape(-1, 2, 2)
 
 
-def _segment_ends(lines, extents) -> np.ndarray:
-    """End points ``(l, 2, 2)`` of lines ``(ρ, α)`` between positions ``[s0, s1]`` along them."""
+def _segment_ends(lines, extents, anchors) -> np.ndarray:
+    """End points ``(l, 2, 2)`` of anchored lines ``(ρ, α)`` between positions ``[s0, s1]`` along them
+    (``s = p·d`` from the world origin, ``d`` the line's direction)."""
     lines = np.asarray(lines, float).reshape(-1, 2)
     n = np.column_stack([np.cos(lines[:, 1]), np.sin(lines[:, 1])])
     d = np.column_stack([-n[:, 1], n[:, 0]])
-    foot = lines[:, :1] * n
+    foot = (lines[:, :1] + np.einsum("ij,ij->i", anchors, n)[:, None]) * n
     return np.stack([foot + extents[:, :1] * d, foot + extents[:, 1:] * d], axis=1)
 
 
@@ -215,9 +216,9 @@ class EkfSlam:
 
     def line_segments(self) -> np.ndarray:
         """World end points ``(l, 2, 2)`` of the mapped extent of every line landmark."""
-        lines = self.state.landmarks[self.state.lines]
-        ext = self.line_extents[self.state.lines]
-        return _segment_ends(lines, ext)
+        is_line = self.state.lines
+        return _segment_ends(self.state.landmarks[is_line], self.line_extents[is_line],
+                             self.state.anchors[is_line])
 
     def occupancy_map(self) -> OccupancyGrid | None:
         return None

@@ -18,6 +18,10 @@ Garulli et al. 2005). Scans give lines with ``ρ_r >= 0`` (the normal points
 away from the sensor), so :func:`observe_line` reports that form: when the
 robot is on the far side (``ρ_r < 0``) it returns ``(-ρ_r, α_r + π)`` and the
 ``ρ`` row of the Jacobians changes sign. The world ``ρ`` may be negative.
+A line's ``ρ`` is measured from a fixed anchor point ``a`` (the robot's position
+when the line was first mapped), ``{p : (p - a)·n(α) = ρ}``: from the world origin
+the lever ``|p|`` of a line far away would turn a small angle error into a large
+second-order error in ``ρ`` (and ill-condition the covariance).
 """
 
 from __future__ import annotations
@@ -109,16 +113,19 @@ def to_range_bearing(points) -> np.ndarray:
     return np.column_stack([np.hypot(points[:, 0], points[:, 1]), np.arctan2(points[:, 1], points[:, 0])])
 
 
-def observe_line(pose, line) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def observe_line(pose, line, anchor=(0.0, 0.0)) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(z, H_pose, H_line)``: the robot-frame ``(ρ_r >= 0, α_r)`` of a world line and its Jacobians."""
-    z, h_pose, h_line = observe_lines_many(pose, np.asarray(line, float).reshape(1, 2))
+    z, h_pose, h_line = observe_lines_many(pose, np.asarray(line, float).reshape(1, 2),
+                                           np.asarray(anchor, float).reshape(1, 2))
     return z[0], h_pose[0], h_line[0]
 
 
-def observe_lines_many(pose, lines) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`observe_line` for ``(k, 2)`` lines: ``z (k, 2)``, ``H_pose (k, 2, 3)``, ``H_line (k, 2, 2)``."""
+def observe_lines_many(pose, lines, anchors=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`observe_line` for ``(k, 2)`` lines with anchors ``(k, 2)`` (default the origin):
+    ``z (k, 2)``, ``H_pose (k, 2, 3)``, ``H_line (k, 2, 2)``."""
     lines = np.asarray(lines, float).reshape(-1, 2)
-    x, y, th = pose
+    anchors = np.zeros_like(lines) if anchors is None else np.asarray(anchors, float).reshape(-1, 2)
+    x, y, th = pose[0] - anchors[:, 0], pose[1] - anchors[:, 1], pose[2]
     rho, alpha = lines[:, 0], lines[:, 1]
     c, s = np.cos(alpha), np.sin(alpha)
     rho_r = rho - x * c - y * s
@@ -136,9 +143,9 @@ def observe_lines_many(pose, lines) -> tuple[np.ndarray, np.ndarray, np.ndarray]
     return z, h_pose, h_line
 
 
-def inverse_line_observation(pose, z) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def inverse_line_observation(pose, z, anchor=(0.0, 0.0)) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(l, G_pose, G_z)``: the world line seen as robot-frame ``z = (ρ_r, α_r)`` and the Jacobians."""
-    x, y, th = pose
+    x, y, th = pose[0] - anchor[0], pose[1] - anchor[1], pose[2]
     rho_r, alpha_r = z
     alpha = float(wrap_angle(th + alpha_r))
     c, s = np.cos(alpha), np.sin(alpha)

@@ -38,6 +38,7 @@ class EkfState:
         self.mean = pose.copy()
         self.cov = cov.copy()
         self.lines = np.zeros(0, dtype=bool)  # per landmark: a line (ρ, α), else a point (x, y)
+        self.anchors = np.zeros((0, 2))  # per line: the point its ρ is measured from (0 for points)
 
     @property
     def n_landmarks(self) -> int:
@@ -79,14 +80,18 @@ class EkfState:
     def observe(self, index: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Expected observation of landmark ``index`` and its Jacobians (point or line model)."""
         j = POSE + 2 * index
-        model = observe_line if self.lines[index] else observe
-        return model(self.mean[:POSE], self.mean[j:j + 2])
+        if self.lines[index]:
+            return observe_line(self.mean[:POSE], self.mean[j:j + 2], self.anchors[index])
+        return observe(self.mean[:POSE], self.mean[j:j + 2])
 
     def add_landmark(self, z, r, line: bool = False) -> int:
         """Append the landmark seen as ``z`` (noise ``r``): a point at range-bearing ``z`` or, with
-        ``line``, a line at robot-frame ``(ρ, α)``; returns its index."""
-        inverse = inverse_line_observation if line else inverse_observation
-        lm, g_pose, g_z = inverse(self.mean[:POSE], z)
+        ``line``, a line at robot-frame ``(ρ, α)`` anchored at the robot's position; returns its index."""
+        anchor = self.mean[:2].copy() if line else np.zeros(2)
+        if line:
+            lm, g_pose, g_z = inverse_line_observation(self.mean[:POSE], z, anchor)
+        else:
+            lm, g_pose, g_z = inverse_observation(self.mean[:POSE], z)
         n = len(self.mean)
         p = np.zeros((n + 2, n + 2))
         p[:n, :n] = self.cov
@@ -97,6 +102,7 @@ class EkfState:
         self.mean = np.concatenate([self.mean, lm])
         self.cov = p
         self.lines = np.append(self.lines, bool(line))
+        self.anchors = np.vstack([self.anchors, anchor])
         return self.n_landmarks - 1
 
     def innovation(self, index: int, z, r) -> tuple[np.ndarray, np.ndarray]:
