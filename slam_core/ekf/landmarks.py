@@ -53,7 +53,7 @@ class ExtractorConfig:
     lines: bool = True
     line_min_points: int = 12
     line_min_length: float = 1.0  # shorter segments constrain the heading too little
-    line_max_range: float = 10.0  # segments with an end point further away are left out
+    line_max_range: float = 10.0  # points further away are left out of the lines
 
 
 @dataclass(frozen=True)
@@ -220,21 +220,23 @@ class Lines:
 
 def line_segments(scan: Scan, config: ExtractorConfig | None = None,
                   runs: list[np.ndarray] | None = None) -> list[np.ndarray]:
-    """Sensor-frame points ``(n, 2)`` of each long straight segment of the scan (split-and-merge)."""
+    """Sensor-frame points ``(n, 2)`` of each long straight segment of the scan (split-and-merge),
+    from the points within ``line_max_range`` (a run is cut where it leaves that range)."""
     config = config or ExtractorConfig()
     runs = clusters(scan, config) if runs is None else runs
     r, a = scan.ranges, scan.angles
     out = []
     for run in runs:
-        if len(run) < config.line_min_points:
-            continue
-        pts = np.column_stack([r[run] * np.cos(a[run]), r[run] * np.sin(a[run])])
-        for a0, b0 in split_segments(pts, config.split_threshold):
-            seg = pts[a0:b0 + 1]
-            if (len(seg) >= config.line_min_points
-                    and np.hypot(*(seg[-1] - seg[0])) >= config.line_min_length
-                    and max(np.hypot(*seg[0]), np.hypot(*seg[-1])) <= config.line_max_range):
-                out.append(seg)
+        near = run[r[run] <= config.line_max_range]
+        for piece in np.split(near, np.flatnonzero(np.diff(near) > 1) + 1):
+            if len(piece) < config.line_min_points:
+                continue
+            pts = np.column_stack([r[piece] * np.cos(a[piece]), r[piece] * np.sin(a[piece])])
+            for a0, b0 in split_segments(pts, config.split_threshold):
+                seg = pts[a0:b0 + 1]
+                long = np.hypot(*(seg[-1] - seg[0])) >= config.line_min_length
+                if len(seg) >= config.line_min_points and long:
+                    out.append(seg)
     return out
 
 
