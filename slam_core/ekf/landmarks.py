@@ -54,6 +54,8 @@ class ExtractorConfig:
     line_min_points: int = 12
     line_min_length: float = 1.0  # shorter segments constrain the heading too little
     line_max_range: float = 10.0  # points further away are left out of the lines
+    line_merge_angle: float = np.radians(3.0)  # segments of one scan this close in angle ...
+    line_merge_distance: float = 0.1  # ... and distance (m) are one wall (split by a door, the seam)
 
 
 @dataclass(frozen=True)
@@ -237,7 +239,30 @@ def line_segments(scan: Scan, config: ExtractorConfig | None = None,
                 long = np.hypot(*(seg[-1] - seg[0])) >= config.line_min_length
                 if len(seg) >= config.line_min_points and long:
                     out.append(seg)
-    return out
+    return merge_collinear(out, config.line_merge_angle, config.line_merge_distance)
+
+
+def merge_collinear(segments: list[np.ndarray], max_angle: float, max_distance: float) -> list[np.ndarray]:
+    """Join segments lying on one line (the "merge" of split-and-merge, across gaps as well): two
+    segments are joined when their fitted lines differ by less than ``max_angle`` and each one's
+    points lie within ``max_distance`` of the other's line on average; repeated until none is."""
+    segments = list(segments)
+    merged = True
+    while merged:
+        merged = False
+        fits = [fit_line(seg) for seg in segments]
+        for i, j in itertools.combinations(range(len(segments)), 2):
+            (ci, di), (cj, dj) = fits[i], fits[j]
+            if np.arccos(np.clip(abs(di @ dj), 0.0, 1.0)) > max_angle:
+                continue
+            ni, nj = np.array([-di[1], di[0]]), np.array([-dj[1], dj[0]])
+            if (abs((segments[j] - ci) @ ni).mean() < max_distance
+                    and abs((segments[i] - cj) @ nj).mean() < max_distance):
+                segments[i] = np.vstack([segments[i], segments[j]])
+                del segments[j]
+                merged = True
+                break
+    return segments
 
 
 def fit_lines(segments: list[np.ndarray], sigma_floor: float = 0.0,
@@ -272,7 +297,7 @@ def fit_lines(segments: list[np.ndarray], sigma_floor: float = 0.0,
         t_bar = float(t.mean())
         covs.append([[sigma2 / n_eff + t_bar * t_bar * var_a, t_bar * var_a], [t_bar * var_a, var_a]])
         params.append([rho, alpha])
-        ends.append([seg[0], seg[-1]])
+        ends.append([seg[np.argmin(t)], seg[np.argmax(t)]])
     return Lines(np.array(params), np.array(covs), np.array(ends))
 
 
