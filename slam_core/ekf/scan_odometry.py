@@ -29,7 +29,8 @@ class IcpConfig:
     gate_end: float = 0.15  # ... shrinking to this
     trim: float = 0.8  # keep this fraction of the best pairs
     min_pairs: int = 40
-    normal_max_gap: float = 0.25  # a normal needs both scan neighbours this close (m)
+    normal_max_gap: float = 0.25  # a normal needs its scan neighbours this close to each other (m)
+    normal_span: int = 1  # a normal from the neighbours this many beams away on either side
     max_step_change: float = 0.5  # refuse results further than this (m) from the odometry
     max_turn_change: float = np.radians(15.0)
     residual_floor: float = 0.01  # the residual std (m) used is at least this
@@ -47,21 +48,24 @@ class IcpResult:
     rms: float = np.inf
 
 
-def surface_normals(points: np.ndarray, max_gap: float) -> tuple[np.ndarray, np.ndarray]:
-    """Unit normals ``(n, 2)`` from each point's scan-order neighbours, and a mask of usable ones
-    (both neighbours within ``max_gap``)."""
+def surface_normals(points: np.ndarray, max_gap: float, span: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    """Unit normals ``(n, 2)`` from the chord between each point's ``span``-th scan-order neighbours
+    on either side, and a mask of usable ones (every step along the chord within ``max_gap``).
+    A wider span averages out range noise, which otherwise tilts the normals of a wall seen at a
+    grazing angle and invents information along a corridor."""
     n = len(points)
     normals = np.zeros((n, 2))
     ok = np.zeros(n, dtype=bool)
-    if n < 3:
+    if n < 2 * span + 1:
         return normals, ok
-    chord = points[2:] - points[:-2]
-    near = (np.hypot(*(points[2:] - points[1:-1]).T) < max_gap) & (
-        np.hypot(*(points[1:-1] - points[:-2]).T) < max_gap)
+    chord = points[2 * span:] - points[:-2 * span]
+    step = np.hypot(*np.diff(points, axis=0).T) < max_gap
+    # all 2·span steps between the chord's ends are short
+    window = np.convolve(step.astype(int), np.ones(2 * span, dtype=int), mode="valid") == 2 * span
     length = np.maximum(np.hypot(chord[:, 0], chord[:, 1]), 1e-12)
-    normals[1:-1, 0] = -chord[:, 1] / length
-    normals[1:-1, 1] = chord[:, 0] / length
-    ok[1:-1] = near
+    normals[span:-span, 0] = -chord[:, 1] / length
+    normals[span:-span, 1] = chord[:, 0] / length
+    ok[span:-span] = window
     return normals, ok
 
 
@@ -87,7 +91,7 @@ def match_scans(prev_scan, scan, guess, config: IcpConfig | None = None) -> IcpR
     new = _points(scan.ranges, scan.angles, scan.valid, cfg.max_range)[::cfg.stride]
     if len(ref) < cfg.min_pairs or len(new) < cfg.min_pairs:
         return failed
-    normals, flat = surface_normals(ref, cfg.normal_max_gap)
+    normals, flat = surface_normals(ref, cfg.normal_max_gap, cfg.normal_span)
     ref, normals = ref[flat], normals[flat]
     if len(ref) < cfg.min_pairs:
         return failed
