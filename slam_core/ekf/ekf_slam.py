@@ -114,7 +114,8 @@ def _conjugation_jacobian(offset, u, eps: float = 1e-6) -> np.ndarray:
 
 @dataclass(frozen=True)
 class Innovations:
-    """The last update's matched observations: landmark index, innovation ``(r, b)`` and its covariance."""
+    """The last update's matched observations: landmark index, innovation (range-bearing ``(r, b)``
+    for a point, ``(ρ, α)`` for a line) and its covariance."""
 
     landmarks: np.ndarray  # (m,) int
     innovations: np.ndarray  # (m, 2)
