@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from slam_core.ekf.models import observe_many
+from slam_core.ekf.models import observe_lines_many, observe_many
 from slam_core.ekf.state import POSE, EkfState
 from slam_core.geometry import wrap_angle
 
@@ -40,7 +40,12 @@ def predicted_innovation_covariances(state: EkfState) -> tuple[np.ndarray, np.nd
     if k == 0:
         return np.zeros((0, 2)), np.zeros((0, 2, 2))
     pose = state.mean[:POSE]
-    z, h_pose, h_lm = observe_many(pose, state.mean[POSE:].reshape(-1, 2))
+    landmarks = state.mean[POSE:].reshape(-1, 2)
+    z, h_pose, h_lm = observe_many(pose, landmarks)
+    lines = state.lines
+    if lines.any():
+        z[lines], h_pose[lines], h_lm[lines] = observe_lines_many(pose, landmarks[lines],
+                                                                       state.anchors[lines])
     p = state.cov
     idx = POSE + 2 * np.arange(k)
     p_rr = p[:POSE, :POSE]

@@ -10,6 +10,9 @@
    (split-and-merge, Nguyen et al. 2005); two consecutive segments that are long
    enough, meet at a clear angle and are at most a few beams apart give a
    corner at the intersection of their total-least-squares lines.
+4. Lines: the long segments of step 3 themselves, as infinite lines in normal
+   form ``(ρ, α)`` fitted by total least squares, with the covariance of the fit
+   and the segment's end points (for the overlap check of the association).
 """
 
 from __future__ import annotations
@@ -24,6 +27,7 @@ from slam_core.scan import Scan
 
 SPIKE = 0
 CORNER = 1
+LINE = 2
 
 
 @dataclass(frozen=True)
@@ -46,6 +50,12 @@ class ExtractorConfig:
     corner_min_angle: float = np.radians(50.0)  # smallest acute angle between the two walls
     corner_max_gap: float = 0.15  # intersection to the segments' facing end points
     corner_max_skip: int = 4  # beams of rounded corner allowed between the two segments
+    lines: bool = True
+    line_min_points: int = 12
+    line_min_length: float = 1.0  # shorter segments constrain the heading too little
+    line_max_range: float = 10.0  # points further away are left out of the lines
+    line_merge_angle: float = np.radians(3.0)  # segments of one scan this close in angle ...
+    line_merge_distance: float = 0.1  # ... and distance (m) are one wall (split by a door, the seam)
 
 
 @dataclass(frozen=True)
@@ -191,6 +201,104 @@ def corners(scan: Scan, runs: list[np.ndarray], config: ExtractorConfig) -> tupl
                 bisector = wall0 + wall1
                 directions.append(np.arctan2(bisector[1], bisector[0]))
     return np.array(out).reshape(-1, 2), np.array(directions)
+
+
+@dataclass(frozen=True)
+class Lines:
+    """Lines seen in one scan, in the frame of their points: normal form ``(ρ >= 0, α)`` ``(k, 2)``,
+    covariances ``(k, 2, 2)`` and the segments' end points ``(k, 2, 2)``."""
+
+    params: np.ndarray
+    covariances: np.ndarray
+    ends: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.params)
+
+    @classmethod
+    def empty(cls) -> Lines:
+        return cls(np.zeros((0, 2)), np.zeros((0, 2, 2)), np.zeros((0, 2, 2)))
+
+
+def line_segments(scan: Scan, config: ExtractorConfig | None = None,
+                  runs: list[np.ndarray] | None = None) -> list[np.ndarray]:
+    """Sensor-frame points ``(n, 2)`` of each long straight segment of the scan (split-and-merge),
+    from the points within ``line_max_range`` (a run is cut where it leaves that range)."""
+    config = config or ExtractorConfig()
+    runs = clusters(scan, config) if runs is None else runs
+    r, a = scan.ranges, scan.angles
+    out = []
+    for run in runs:
+        near = run[r[run] <= config.line_max_range]
+        for piece in np.split(near, np.flatnonzero(np.diff(near) > 1) + 1):
+            if len(piece) < config.line_min_points:
+                continue
+            pts = np.column_stack([r[piece] * np.cos(a[piece]), r[piece] * np.sin(a[piece])])
+            for a0, b0 in split_segments(pts, config.split_threshold):
+                seg = pts[a0:b0 + 1]
+                long = np.hypot(*(seg[-1] - seg[0])) >= config.line_min_length
+                if len(seg) >= config.line_min_points and long:
+                    out.append(seg)
+    return merge_collinear(out, config.line_merge_angle, config.line_merge_distance)
+
+
+def merge_collinear(segments: list[np.ndarray], max_angle: float, max_distance: float) -> list[np.ndarray]:
+    """Join segments lying on one line (the "merge" of split-and-merge, across gaps as well): two
+    segments are joined when their fitted lines differ by less than ``max_angle`` and each one's
+    points lie within ``max_distance`` of the other's line on average; repeated until none is."""
+    segments = list(segments)
+    merged = True
+    while merged:
+        merged = False
+        fits = [fit_line(seg) for seg in segments]
+        for i, j in itertools.combinations(range(len(segments)), 2):
+            (ci, di), (cj, dj) = fits[i], fits[j]
+            if np.arccos(np.clip(abs(di @ dj), 0.0, 1.0)) > max_angle:
+                continue
+            ni, nj = np.array([-di[1], di[0]]), np.array([-dj[1], dj[0]])
+            if (abs((segments[j] - ci) @ ni).mean() < max_distance
+                    and abs((segments[i] - cj) @ nj).mean() < max_distance):
+                segments[i] = np.vstack([segments[i], segments[j]])
+                del segments[j]
+                merged = True
+                break
+    return segments
+
+
+def fit_lines(segments: list[np.ndarray], sigma_floor: float = 0.0,
+              effective_points: int | None = None) -> Lines:
+    """Total-least-squares normal form of each segment with the covariance of the fit.
+
+    With ``d`` the line direction and ``tᵢ = pᵢ·d``, a point noise ``σ`` across the line gives
+    ``var α = σ² / Σ(tᵢ - t̄)²`` and, since the fit passes through the centroid,
+    ``ρ = ρ_c + t̄ δα``: ``var ρ = σ²/n + t̄² var α``, ``cov(ρ, α) = t̄ var α``. ``σ`` is the fit's
+    residual std (at least ``sigma_floor``); ``effective_points`` caps ``n`` (scan errors along
+    a wall are correlated, so n points carry less than n independent measurements).
+    """
+    if not segments:
+        return Lines.empty()
+    params, covs, ends = [], [], []
+    for seg in segments:
+        c, d = fit_line(seg)
+        normal = np.array([d[1], -d[0]])
+        rho = float(normal @ c)
+        if rho < 0:
+            normal, rho = -normal, -rho
+        alpha = float(np.arctan2(normal[1], normal[0]))
+        direction = np.array([-normal[1], normal[0]])
+        t = seg @ direction
+        resid = seg @ normal - rho
+        n = len(seg)
+        dof = max(n - 2, 1)
+        sigma2 = max(float(resid @ resid) / dof, sigma_floor ** 2)
+        n_eff = n if effective_points is None else min(n, effective_points)
+        spread = float(((t - t.mean()) ** 2).sum()) * n_eff / n
+        var_a = sigma2 / max(spread, 1e-12)
+        t_bar = float(t.mean())
+        covs.append([[sigma2 / n_eff + t_bar * t_bar * var_a, t_bar * var_a], [t_bar * var_a, var_a]])
+        params.append([rho, alpha])
+        ends.append([seg[np.argmin(t)], seg[np.argmax(t)]])
+    return Lines(np.array(params), np.array(covs), np.array(ends))
 
 
 def _unit(v: np.ndarray) -> np.ndarray:

@@ -10,6 +10,18 @@ The increment's covariance comes from the odometry motion model of
 Observation: a landmark ``l = (lx, ly)`` is seen at range and bearing
 ``h(p, l) = (|l - (x, y)|, atan2(ly - y, lx - x) - θ)``; its inverse ``g(p, z)``
 places a new landmark (ch. 10.2, eq. 10.12 / table 10.1).
+
+Lines (wall segments): a world line ``l = (ρ, α)`` is the set ``{p : p·n(α) = ρ}``
+with ``n(α) = (cos α, sin α)``. Seen from the pose it is
+``ρ_r = ρ - x cos α - y sin α``, ``α_r = α - θ`` (Arras & Siegwart 1997;
+Garulli et al. 2005). Scans give lines with ``ρ_r >= 0`` (the normal points
+away from the sensor), so :func:`observe_line` reports that form: when the
+robot is on the far side (``ρ_r < 0``) it returns ``(-ρ_r, α_r + π)`` and the
+``ρ`` row of the Jacobians changes sign. The world ``ρ`` may be negative.
+A line's ``ρ`` is measured from a fixed anchor point ``a`` (the robot's position
+when the line was first mapped), ``{p : (p - a)·n(α) = ρ}``: from the world origin
+the lever ``|p|`` of a line far away would turn a small angle error into a large
+second-order error in ``ρ`` (and ill-condition the covariance).
 """
 
 from __future__ import annotations
@@ -99,3 +111,46 @@ def to_range_bearing(points) -> np.ndarray:
     """Range-bearing ``(k, 2)`` of robot-frame points ``(k, 2)``."""
     points = np.asarray(points, dtype=float).reshape(-1, 2)
     return np.column_stack([np.hypot(points[:, 0], points[:, 1]), np.arctan2(points[:, 1], points[:, 0])])
+
+
+def observe_line(pose, line, anchor=(0.0, 0.0)) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(z, H_pose, H_line)``: the robot-frame ``(ρ_r >= 0, α_r)`` of a world line and its Jacobians."""
+    z, h_pose, h_line = observe_lines_many(pose, np.asarray(line, float).reshape(1, 2),
+                                           np.asarray(anchor, float).reshape(1, 2))
+    return z[0], h_pose[0], h_line[0]
+
+
+def observe_lines_many(pose, lines, anchors=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`observe_line` for ``(k, 2)`` lines with anchors ``(k, 2)`` (default the origin):
+    ``z (k, 2)``, ``H_pose (k, 2, 3)``, ``H_line (k, 2, 2)``."""
+    lines = np.asarray(lines, float).reshape(-1, 2)
+    anchors = np.zeros_like(lines) if anchors is None else np.asarray(anchors, float).reshape(-1, 2)
+    x, y, th = pose[0] - anchors[:, 0], pose[1] - anchors[:, 1], pose[2]
+    rho, alpha = lines[:, 0], lines[:, 1]
+    c, s = np.cos(alpha), np.sin(alpha)
+    rho_r = rho - x * c - y * s
+    sign = np.where(rho_r < 0, -1.0, 1.0)
+    k = len(lines)
+    z = np.column_stack([sign * rho_r, wrap_angle(alpha - th + np.where(sign < 0, np.pi, 0.0))])
+    h_pose = np.zeros((k, 2, 3))
+    h_pose[:, 0, 0] = -sign * c
+    h_pose[:, 0, 1] = -sign * s
+    h_pose[:, 1, 2] = -1.0
+    h_line = np.zeros((k, 2, 2))
+    h_line[:, 0, 0] = sign
+    h_line[:, 0, 1] = sign * (x * s - y * c)
+    h_line[:, 1, 1] = 1.0
+    return z, h_pose, h_line
+
+
+def inverse_line_observation(pose, z, anchor=(0.0, 0.0)) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(l, G_pose, G_z)``: the world line seen as robot-frame ``z = (ρ_r, α_r)`` and the Jacobians."""
+    x, y, th = pose[0] - anchor[0], pose[1] - anchor[1], pose[2]
+    rho_r, alpha_r = z
+    alpha = float(wrap_angle(th + alpha_r))
+    c, s = np.cos(alpha), np.sin(alpha)
+    lever = -x * s + y * c  # dρ/dα at fixed robot-frame ρ_r
+    line = np.array([rho_r + x * c + y * s, alpha])
+    g_pose = np.array([[c, s, lever], [0.0, 0.0, 1.0]])
+    g_z = np.array([[1.0, lever], [0.0, 1.0]])
+    return line, g_pose, g_z

@@ -21,8 +21,10 @@ def ellipse_outline(mean, cov, sigmas: float = ELLIPSE_SIGMAS, n: int = ELLIPSE_
 
 
 def save_landmark_png(path, landmarks, covariances, trajectory=None, points=None,
-                      resolution: float = 0.05, margin: float = 2.0, caption: str | None = None) -> Path:
-    """Draw landmarks ``(k, 2)`` with their ellipses, a trajectory ``(n, 2+)`` and grey points ``(p, 2)``."""
+                      resolution: float = 0.05, margin: float = 2.0, caption: str | None = None,
+                      segments=None) -> Path:
+    """Draw landmarks ``(k, 2)`` with their ellipses, a trajectory ``(n, 2+)``, grey points ``(p, 2)``
+    and wall segments ``(l, 2, 2)`` (end points)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     landmarks = np.asarray(landmarks, float).reshape(-1, 2)
@@ -31,6 +33,8 @@ def save_landmark_png(path, landmarks, covariances, trajectory=None, points=None
         parts.append(np.asarray(trajectory, float)[:, :2])
     if points is not None:
         parts.append(np.asarray(points, float).reshape(-1, 2))
+    segments = np.zeros((0, 2, 2)) if segments is None else np.asarray(segments, float).reshape(-1, 2, 2)
+    parts.append(segments.reshape(-1, 2))
     everything = np.vstack(parts) if sum(len(p) for p in parts) else np.zeros((1, 2))
     lo = everything.min(axis=0) - margin
     hi = everything.max(axis=0) + margin
@@ -46,6 +50,8 @@ def save_landmark_png(path, landmarks, covariances, trajectory=None, points=None
     if points is not None:
         for p in px(points):
             draw.point(p, fill=(150, 150, 150))
+    for ends in segments:
+        draw.line(px(ends), fill=(20, 130, 20), width=2)
     if trajectory is not None and len(trajectory) > 1:
         draw.line(px(np.asarray(trajectory)[:, :2]), fill=(220, 30, 30), width=1)
     for mean, cov in zip(landmarks, np.asarray(covariances, float).reshape(-1, 2, 2), strict=True):
