@@ -21,7 +21,7 @@ from slam_core.jit import njit
 from slam_core.occupancy_grid import OccupancyGrid, SensorModel
 from slam_core.raycast import beam_endpoint, ray_buffer_size, trace_ray
 
-TILE_BITS = 5
+TILE_BITS = 4
 TILE = 1 << TILE_BITS
 #: Empty tiles added around the lattice whenever it grows.
 GROW_MARGIN_TILES = 4
@@ -143,11 +143,23 @@ def _retable(tables, refs, free_stack, free_top, parents):
                         free_top[0] += 1
 
 
+def _grown(array: np.ndarray, length: int) -> np.ndarray:
+    """``array`` in a zeroed array of ``length`` rows; only the copied rows are written."""
+    out = np.zeros((length, *array.shape[1:]), array.dtype)
+    out[:len(array)] = array
+    return out
+
+
 class TiledMaps:
-    """``n`` occupancy maps over one growing tile lattice, sharing tiles copy-on-write."""
+    """``n`` occupancy maps over one growing tile lattice, sharing tiles copy-on-write.
+
+    The pool is allocated zeroed for ``capacity`` tiles and handed out from its low end,
+    so the memory a process really holds is that of the tiles taken so far (the operating
+    system maps zeroed pages only when they are first written); it doubles when full.
+    """
 
     def __init__(self, n_maps: int, resolution: float = 0.05, model: SensorModel | None = None,
-                 capacity: int = 256):
+                 capacity: int = 16384):
         self.resolution = float(resolution)
         self.model = model or SensorModel()
         self.lo = np.zeros((capacity, TILE, TILE), np.float32)
@@ -171,8 +183,9 @@ class TiledMaps:
         return self.resolution * TILE
 
     def nbytes(self) -> int:
-        """Bytes held by the pool and the tables."""
-        return self.lo.nbytes + self.hits.nbytes + self.refs.nbytes + self.tables.nbytes
+        """Bytes of the tiles in use and of the tables."""
+        per_tile = (self.lo.nbytes + self.hits.nbytes + self.refs.nbytes) // len(self.refs)
+        return self.tiles_in_use * per_tile + self.tables.nbytes
 
     def ensure_contains(self, xmin: float, ymin: float, xmax: float, ymax: float) -> None:
         """Grow the common tile lattice (whole tiles, with margin) to cover a world box."""
@@ -220,11 +233,11 @@ class TiledMaps:
         if free >= needed:
             return
         old = len(self.refs)
-        new = max(old + needed - free, int(old * 1.5))
+        new = max(old + needed - free, 2 * old)
         extra = new - old
-        self.lo = np.concatenate([self.lo, np.zeros((extra, TILE, TILE), np.float32)])
-        self.hits = np.concatenate([self.hits, np.zeros((extra, TILE, TILE, 3), np.float32)])
-        self.refs = np.concatenate([self.refs, np.zeros(extra, np.int32)])
+        self.lo = _grown(self.lo, new)
+        self.hits = _grown(self.hits, new)
+        self.refs = _grown(self.refs, new)
         stack = np.empty(new, np.int32)
         stack[:free] = self.free_stack[:free]
         stack[free:free + extra] = np.arange(new - 1, old - 1, -1, dtype=np.int32)
