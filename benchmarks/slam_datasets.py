@@ -3,12 +3,13 @@
 Prints, per log: wall time, real-time factor, peak RSS, numba compile time (cold
 cache and warm cache), filter updates, and the relation error (mean ± std).
 
-    python benchmarks/slam_datasets.py [--particles 30] [--logs intel mit-csail]
+    python benchmarks/slam_datasets.py [--particles 30] [--logs intel mit-csail] [--seeds 0 1 2]
 """
 
 from __future__ import annotations
 
 import argparse
+import itertools
 import json
 import os
 import platform
@@ -49,6 +50,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--particles", type=int, default=30)
     parser.add_argument("--logs", nargs="+", default=["intel", "mit-csail"])
+    parser.add_argument("--seeds", nargs="+", type=int, default=[0], help="one run per seed")
     args = parser.parse_args()
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
           f"python {platform.python_version()}")
@@ -56,16 +58,17 @@ def main() -> None:
         tmp = Path(tmp)
         cold, warm = compile_times(tmp)
         print(f"start-up incl. numba compile, 40-line log: cold cache {cold:.1f} s, warm cache {warm:.1f} s")
-        print("| log | particles | wall s | real-time factor | peak RSS MB | updates | resamplings | "
+        print("| log | seed | particles | wall s | real-time factor | peak RSS MB | updates | resamplings | "
               "fallbacks | translational m | rotational deg |")
-        print("|---|---|---|---|---|---|---|---|---|---|")
-        for name in args.logs:
-            out = tmp / name
-            homebot("slam", name, "--out", str(out), "--particles", str(args.particles))
+        print("|---|---|---|---|---|---|---|---|---|---|---|")
+        for name, seed in itertools.product(args.logs, args.seeds):
+            out = tmp / f"{name}-{seed}"
+            homebot("slam", name, "--out", str(out), "--particles", str(args.particles),
+                    "--seed", str(seed))
             stats = json.loads((out / "stats.json").read_text())
             _, text = homebot("eval", str(out / "trajectory.txt"), name, "--json")
             err = json.loads(text)
-            print(f"| {name} | {args.particles} | {stats['wall_time_s']:.1f} | "
+            print(f"| {name} | {seed} | {args.particles} | {stats['wall_time_s']:.1f} | "
                   f"{stats['real_time_factor']:.1f} | {stats['peak_rss_mb']:.0f} | {stats['updates']} | "
                   f"{stats['resamplings']} | {stats['fallbacks']} | "
                   f"{err['trans_mean_m']:.4f} ± {err['trans_std_m']:.4f} | "
