@@ -44,7 +44,8 @@ class MatcherParams:
     widened with the odometry's motion), a
     likelihood field of spread ``coarse_sigma`` reaching ``coarse_reach_cells``,
     and a Gaussian prior of ``coarse_prior_linear`` m / ``coarse_prior_angular``
-    rad around the prediction.
+    rad around the prediction. Its result replaces the fine match only when it is
+    likelier and at least ``good_match`` of the beams fit there.
     """
 
     lsigma: float = 0.075
@@ -69,12 +70,12 @@ class MatcherParams:
     free_prob: float = 0.45
     coarse_range: float = 10.0
     coarse_beams: int = 90
-    coarse_linear_cells: int = 6
-    coarse_angular: float = 0.1
+    coarse_linear_cells: int = 20
+    coarse_angular: float = 0.2
     coarse_angular_step: float = 0.005
     coarse_sigma: float = 0.05
     coarse_reach_cells: int = 3
-    coarse_prior_linear: float = 0.3
+    coarse_prior_linear: float = 1.0
     coarse_prior_angular: float = 0.2
 
     def packed(self) -> np.ndarray:

@@ -193,11 +193,12 @@ class RBPFSlam:
                         beams: np.ndarray) -> np.ndarray:
         """The odometry's error (robot frame), found on the leading particle's map.
 
-        The leading particle is matched finely from its prediction. When too few
-        beams match, a coarse correlative search, whose window widens with the
-        odometry's rotation (its worst errors come with fast turns), gives a
-        second start; the better fine match defines the error applied to every
-        particle's prediction.
+        The leading particle is matched finely from its prediction turned to a few
+        headings, and keeps the likeliest. When too few beams match, a coarse
+        correlative search, whose window widens with the odometry's rotation (its
+        worst errors come with fast turns), gives a second start; its fine match
+        wins if it is likelier and fits well. The result defines the error applied
+        to every particle's prediction.
         """
         m = self.config.matcher
         maps = self.maps
@@ -228,8 +229,8 @@ class RBPFSlam:
                                 m.coarse_angular_step, linear_cells, m.coarse_prior_linear,
                                 m.coarse_prior_angular + 0.5 * turn)
         x, y, th, _, _ = match(*fine, sx, sy, sth, beams, self._params, m.iterations, m.wide_iterations)
-        ll, _ = pose_likelihood(*fine, x, y, th, beams, self._params)
-        if ll > best_ll:
+        ll, fitting = pose_likelihood(*fine, x, y, th, beams, self._params)
+        if ll > best_ll and fitting >= m.good_match * len(beams):
             best = np.array([x, y, th])
         return relative(pred, best)
 
