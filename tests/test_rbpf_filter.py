@@ -119,6 +119,20 @@ def test_a_scan_the_odometry_cannot_explain_forces_an_update():
     assert abs(wrap_angle(slam.estimate().pose[2] - turned[2])) < 0.4 * turned[2]
 
 
+def test_a_turn_the_odometry_reports_late_is_not_counted_twice():
+    config = RBPFConfig(particles=3, linear_update=0.5, angular_update=0.3)
+    slam = RBPFSlam(config, seed=0)
+    slam.step(np.zeros(3), room_scan(np.zeros(3), 360))
+    still = np.array([0.6, 0.0, 0.0])
+    slam.step(still, room_scan(still, 360))
+    for heading in np.arange(1, 8) * 0.1:  # the robot turns; the wheels report nothing yet
+        assert slam.step(still, room_scan(np.array([0.6, 0.0, heading]), 360))
+    late = np.array([0.6, 0.0, 0.7])  # now the odometry reports the whole turn at once
+    assert slam.step(late, room_scan(late, 360))
+    assert slam.stats.wide_heading_searches >= 1
+    assert abs(wrap_angle(slam.estimate().pose[2] - late[2])) < 0.05
+
+
 def test_slice_of_the_mit_csail_log_stays_accurate(tmp_path):
     """Regression: the first 400 scans of mit-csail stay within 6 cm / 1.5 deg (0.030 m / 0.67 deg now).
 

@@ -41,6 +41,7 @@ class RBPFStats:
     matched: int = 0
     fallbacks: int = 0
     coarse_searches: int = 0
+    wide_heading_searches: int = 0
     forced_updates: int = 0
     last_neff: float = 0.0
 
@@ -194,7 +195,9 @@ class RBPFSlam:
         """The odometry's error (robot frame), found on the leading particle's map.
 
         The leading particle is matched finely from its prediction turned to a few
-        headings, and keeps the likeliest. When too few beams match, a coarse
+        headings, and keeps the likeliest; when too few beams match after a large
+        reported turn, headings that take that turn back are tried too. When still too few
+        beams match, a coarse
         correlative search, whose window widens with the odometry's rotation (its
         worst errors come with fast turns), gives a second start; its fine match
         wins if it is likelier and fits well. The result defines the error applied
@@ -206,13 +209,20 @@ class RBPFSlam:
         pred = predicted[lead]
         res = maps.resolution
         fine = (maps.tables[lead], maps.lo, maps.hits, maps.origin[0], maps.origin[1], res)
-        best, best_ll, matched = None, -np.inf, 0
-        for offset in m.lead_rotation_step * np.arange(-m.lead_rotations, m.lead_rotations + 1):
-            x, y, th, _, n = match(*fine, pred[0], pred[1], pred[2] + offset, beams, self._params,
-                                   m.iterations, m.wide_iterations)
-            ll, _ = pose_likelihood(*fine, x, y, th, beams, self._params)
-            if ll > best_ll:
-                best, best_ll, matched = np.array([x, y, th]), ll, n
+        step = m.lead_rotation_step
+        best, best_ll, matched = self._best_heading(fine, pred, beams, step * np.arange(
+            -m.lead_rotations, m.lead_rotations + 1))
+        turn = motion[0] + motion[2]
+        wide = int(np.ceil(abs(turn) / step))
+        if matched < m.good_match * len(beams) and wide > m.lead_rotations:
+            # an odometry that lags reports a turn after the robot made it, when the scans
+            # have shown it already: try headings that take back up to the whole reported
+            # turn, trusted only where the scan then fits well
+            self.stats.wide_heading_searches += 1
+            offsets = -np.sign(turn) * step * np.arange(m.lead_rotations + 1, wide + 1)
+            pose, ll, n = self._best_heading(fine, pred, beams, offsets)
+            if ll > best_ll and n >= m.good_match * len(beams):
+                best, best_ll, matched = pose, ll, n
         points = self._matching_beams(scan, m.coarse_range, m.coarse_beams)[:, :2]
         if matched >= m.good_match * len(beams) or len(points) == 0:
             return relative(pred, best)
@@ -233,6 +243,19 @@ class RBPFSlam:
         if ll > best_ll and fitting >= m.good_match * len(beams):
             best = np.array([x, y, th])
         return relative(pred, best)
+
+    def _best_heading(self, fine: tuple, pred: np.ndarray, beams: np.ndarray,
+                      offsets: np.ndarray) -> tuple[np.ndarray, float, int]:
+        """The likeliest fine match from ``pred`` turned by each offset: ``(pose, ll, matched)``."""
+        m = self.config.matcher
+        best, best_ll, matched = pred, -np.inf, 0
+        for offset in offsets:
+            x, y, th, _, n = match(*fine, pred[0], pred[1], pred[2] + offset, beams, self._params,
+                                   m.iterations, m.wide_iterations)
+            ll, _ = pose_likelihood(*fine, x, y, th, beams, self._params)
+            if ll > best_ll:
+                best, best_ll, matched = np.array([x, y, th]), ll, n
+        return best, best_ll, matched
 
     def _matching_beams(self, scan: Scan, max_range: float, max_beams: int) -> np.ndarray:
         """Rows ``(px, py, ux, uy)`` of up to ``max_beams`` evenly spread echoes."""
