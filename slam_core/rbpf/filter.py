@@ -2,8 +2,13 @@
 
 The joint posterior factors as ``p(x_1:t, m | z_1:t, u_1:t-1) =
 p(m | x_1:t, z_1:t) p(x_1:t | z_1:t, u_1:t-1)``: particles sample trajectories,
-and each carries the map that its trajectory implies. One update:
+and each carries the map that its trajectory implies. The filter updates when the
+odometry has moved past a linear or angular threshold, or when the scan, seen from
+the odometry's prediction, fits the leading map much worse than the last update's
+did (the odometry missed a motion). One update:
 
+0. find the odometry's error on the leading particle's map
+   (:meth:`RBPFSlam._odometry_error`), which every particle's match starts from;
 1. draw every particle's pose from the improved proposal and weight it
    (:mod:`slam_core.rbpf.proposal`);
 2. if ``N_eff`` fell below the threshold, resample (low variance); copies share
@@ -196,12 +201,11 @@ class RBPFSlam:
 
         The leading particle is matched finely from its prediction turned to a few
         headings, and keeps the likeliest; when too few beams match after a large
-        reported turn, headings that take that turn back are tried too. When still too few
-        beams match, a coarse
-        correlative search, whose window widens with the odometry's rotation (its
-        worst errors come with fast turns), gives a second start; its fine match
-        wins if it is likelier and fits well. The result defines the error applied
-        to every particle's prediction.
+        reported turn, headings that take that turn back are tried too. When still
+        too few beams match, a coarse correlative search, whose window widens with
+        the odometry's rotation (its worst errors come with fast turns), gives a
+        second start; its fine match wins if it is likelier and fits well. The
+        result defines the error applied to every particle's prediction.
         """
         m = self.config.matcher
         maps = self.maps
