@@ -156,7 +156,8 @@ class RBPFSlam:
         self.stats.last_neff = neff
         if neff < c.resample_threshold * n:
             self._resample()
-        self._last_fit = self._fit(self.poses[int(np.argmax(self.log_weights))], beams)
+        lead = int(np.argmax(self.log_weights))
+        self._last_fit = self._fit(lead, self.poses[lead], beams)
         self.maps.integrate(self.poses, scan)
         self._finish_update(odom1)
 
@@ -175,11 +176,10 @@ class RBPFSlam:
         self._last_odom = odometry.copy()
         self.stats.updates += 1
 
-    def _fit(self, pose: np.ndarray, beams: np.ndarray) -> float:
-        """Fraction of ``beams`` that find a surface on the leading map from ``pose``."""
+    def _fit(self, lead: int, pose: np.ndarray, beams: np.ndarray) -> float:
+        """Fraction of ``beams`` that find a surface on map ``lead`` from ``pose``."""
         if len(beams) == 0:
             return 0.0
-        lead = int(np.argmax(self.log_weights))
         maps = self.maps
         _, matched = pose_likelihood(maps.tables[lead], maps.lo, maps.hits, maps.origin[0], maps.origin[1],
                                      maps.resolution, pose[0], pose[1], pose[2], beams, self._params)
@@ -192,7 +192,7 @@ class RBPFSlam:
         m = self.config.matcher
         lead = int(np.argmax(self.log_weights))
         predicted = compose(self.poses[lead], moved)
-        fit = self._fit(predicted, self._matching_beams(scan, m.max_range, m.check_beams))
+        fit = self._fit(lead, predicted, self._matching_beams(scan, m.max_range, m.check_beams))
         return fit < self._last_fit - m.mismatch_drop
 
     def _odometry_error(self, predicted: np.ndarray, motion: np.ndarray, scan: Scan,
