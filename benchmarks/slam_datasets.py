@@ -1,7 +1,9 @@
 """Benchmark: ``homebot slam`` on the bundled intel and mit-csail logs.
 
-Prints, per log: wall time, real-time factor, peak RSS, numba compile time (cold
-cache and warm cache), filter updates, and the relation error (mean ± std).
+Prints, per log: wall time (all, and the particle filter's share), real-time factor,
+peak RSS, numba compile time (cold cache and warm cache), filter updates, loop edges,
+and the relation error (mean ± std) of the result and of the best particle's own
+trajectory (before the loop-closing back end).
 
     python benchmarks/slam_datasets.py [--particles 30] [--logs intel mit-csail] [--seeds 0 1 2]
 """
@@ -28,6 +30,11 @@ def homebot(*args: str, env=None) -> tuple[float, str]:
     out = subprocess.run([sys.executable, "-m", "app.cli", *args], cwd=ROOT, env=env, check=True,
                          capture_output=True, text=True)
     return time.perf_counter() - started, out.stdout
+
+
+def evaluate(trajectory: Path, name: str) -> dict:
+    _, text = homebot("eval", str(trajectory), name, "--json")
+    return json.loads(text)
 
 
 def compile_times(workdir: Path) -> tuple[float, float]:
@@ -64,21 +71,22 @@ def main() -> None:
         cold, warm = compile_times(tmp)
         print(f"start-up incl. numba compile, {SLICE_LINES}-line log: cold cache {cold:.1f} s, "
               f"warm cache {warm:.1f} s")
-        print("| log | seed | particles | wall s | real-time factor | peak RSS MB | updates | resamplings | "
-              "fallbacks | translational m | rotational deg |")
-        print("|---|---|---|---|---|---|---|---|---|---|---|")
+        print("| log | seed | particles | wall s (filter) | real-time factor | peak RSS MB | updates | "
+              "resamplings | loop edges | translational m | rotational deg | best particle alone m / deg |")
+        print("|---|---|---|---|---|---|---|---|---|---|---|---|")
         for name, seed in itertools.product(args.logs, args.seeds):
             out = tmp / f"{name}-{seed}"
             homebot("slam", name, "--out", str(out), "--particles", str(args.particles),
                     "--seed", str(seed))
             stats = json.loads((out / "stats.json").read_text())
-            _, text = homebot("eval", str(out / "trajectory.txt"), name, "--json")
-            err = json.loads(text)
-            print(f"| {name} | {seed} | {args.particles} | {stats['wall_time_s']:.1f} | "
-                  f"{stats['real_time_factor']:.1f} | {stats['peak_rss_mb']:.0f} | {stats['updates']} | "
-                  f"{stats['resamplings']} | {stats['fallbacks']} | "
-                  f"{err['trans_mean_m']:.4f} ± {err['trans_std_m']:.4f} | "
-                  f"{err['rot_mean_deg']:.3f} ± {err['rot_std_deg']:.3f} |", flush=True)
+            err = evaluate(out / "trajectory.txt", name)
+            alone = evaluate(out / "particle_trajectory.txt", name)
+            print(f"| {name} | {seed} | {args.particles} | {stats['wall_time_s']:.1f} "
+                  f"({stats['filter_time_s']:.1f}) | {stats['real_time_factor']:.1f} | "
+                  f"{stats['peak_rss_mb']:.0f} | {stats['updates']} | {stats['resamplings']} | "
+                  f"{stats.get('loop_edges', 0)} | {err['trans_mean_m']:.4f} ± {err['trans_std_m']:.4f} | "
+                  f"{err['rot_mean_deg']:.3f} ± {err['rot_std_deg']:.3f} | "
+                  f"{alone['trans_mean_m']:.4f} / {alone['rot_mean_deg']:.3f} |", flush=True)
 
 
 if __name__ == "__main__":

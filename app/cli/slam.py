@@ -20,8 +20,10 @@ from slam_core.rbpf import RBPFConfig
 def register(sub) -> None:
     p = sub.add_parser("slam", help="particle filter SLAM over a log",
                        description="Rao-Blackwellized particle filter SLAM (improved proposal) over a "
-                                   "CARMEN log. Writes the best particle's map (PGM + YAML, PNG), its "
-                                   "trajectory for every scan, the effective config and run stats.")
+                                   "CARMEN log, then a pose graph back end that closes the best "
+                                   "particle's loops. Writes the map (PGM + YAML, PNG), the trajectory "
+                                   "for every scan (trajectory.txt; the best particle's own in "
+                                   "particle_trajectory.txt), the effective config and run stats.")
     p.add_argument("log", help="CARMEN log (.clf, .bz2, .gz) or a bundled name: intel, mit-csail")
     p.add_argument("--out", required=True, type=Path, help="output folder")
     p.add_argument("--particles", type=int, help="number of particles (default 30)")
@@ -29,6 +31,8 @@ def register(sub) -> None:
     p.add_argument("--config", type=Path, help="a config.json written by an earlier run")
     p.add_argument("--linear-update", type=float, help="metres travelled between filter updates")
     p.add_argument("--angular-update", type=float, help="radians turned between filter updates")
+    p.add_argument("--no-loop-closure", action="store_true",
+                   help="skip the back end: write the best particle's own map and trajectory")
     p.set_defaults(run=run)
 
 
@@ -38,6 +42,8 @@ def effective_config(args) -> RBPFConfig:
         config = RBPFConfig.from_dict(json.loads(args.config.read_text()))
     overrides = {"particles": args.particles, "linear_update": args.linear_update,
                  "angular_update": args.angular_update}
+    if args.no_loop_closure:
+        overrides["loop_closure"] = dataclasses.replace(config.loop_closure, enabled=False)
     return dataclasses.replace(config, **{k: v for k, v in overrides.items() if v is not None})
 
 
@@ -47,35 +53,42 @@ def run(args) -> int:
     total = count_laser_lines(log)
     with count_bar(f"slam {log.name}", total, "scan") as tick:
         result = slam_from_log(log, config, seed=args.seed, on_scan=lambda: tick(1))
-    slam = result.slam
     args.out.mkdir(parents=True, exist_ok=True)
-    grid = slam.occupancy_map()
+    grid = result.grid
     pgm, yml = save_map(grid, args.out / "map")
     png = save_png(grid, args.out / "map.png", result.trajectory.poses,
                    caption="homebot RBPF SLAM" + (" - " + CREDIT if is_bundled(log) else ""))
     traj = result.trajectory.save(args.out / "trajectory.txt")
+    particle = result.particle_trajectory.save(args.out / "particle_trajectory.txt")
     (args.out / "config.json").write_text(json.dumps(config.to_dict(), indent=2) + "\n")
     stats = {
         "log": str(log),
         "seed": args.seed,
         "wall_time_s": round(result.wall_time, 3),
+        "filter_time_s": round(result.filter_time, 3),
         "log_duration_s": round(result.log_duration, 3),
         "real_time_factor": round(result.log_duration / max(result.wall_time, 1e-9), 2),
         "peak_rss_mb": round(_peak_rss_mb(), 1),
-        "map_storage_mb": round(slam.map_bytes() / 1e6, 1),
-        "tiles_in_use": slam.maps.tiles_in_use,
-        **slam.stats.as_dict(),
+        "map_storage_mb": round(result.map_bytes / 1e6, 1),
+        "tiles_in_use": result.tiles_in_use,
+        **result.stats.as_dict(),
+        **(result.loop_closure.stats() if result.loop_closure else {}),
         "warnings": result.warnings,
     }
     (args.out / "stats.json").write_text(json.dumps(stats, indent=2) + "\n")
     for warning in result.warnings:
         print(f"warning: {warning}")
-    s = slam.stats
+    s = result.stats
     print(f"{s.scans} scans, {s.updates} filter updates, {s.resamplings} resamplings, "
           f"{s.fallbacks} motion-model fallbacks (of {s.matched + s.fallbacks} particle updates)")
+    if result.loop_closure:
+        lc = result.loop_closure
+        print(f"loop closing: {lc.loop_edges} loop edges ({lc.rejected_edges} rejected as outliers), "
+              f"{result.wall_time - result.filter_time:.1f} s")
     print(f"{result.wall_time:.1f} s wall for {result.log_duration:.0f} s of log "
           f"({stats['real_time_factor']}x real time), peak RSS {stats['peak_rss_mb']} MB")
-    print(f"wrote {yml}, {pgm}, {png}, {traj}, {args.out / 'config.json'}, {args.out / 'stats.json'}")
+    print(f"wrote {yml}, {pgm}, {png}, {traj}, {particle}, {args.out / 'config.json'}, "
+          f"{args.out / 'stats.json'}")
     if is_bundled(log):
         print(CREDIT)
     return 0

@@ -1,4 +1,4 @@
-"""Run the particle filter SLAM over a log and recover a pose for every scan."""
+"""Run the particle filter SLAM over a log, close its loops, and recover a pose for every scan."""
 
 from __future__ import annotations
 
@@ -8,17 +8,29 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from slam_core.geometry import compose, relative
+from slam_core.graph.loop_closure import LoopClosureResult, close_loops, scan_poses
 from slam_core.io.carmen import TruncatedLogError, laser_records
 from slam_core.io.trajectory import Trajectory
-from slam_core.rbpf import RBPFConfig, RBPFSlam
+from slam_core.occupancy_grid import OccupancyGrid
+from slam_core.rbpf import RBPFConfig, RBPFSlam, RBPFStats
 
 
 @dataclass
 class SlamRun:
-    slam: RBPFSlam
+    """What the filter did, its best particle's trajectory for every scan
+    (``particle_trajectory``) and the result: the trajectory and map after loop closing
+    (the particle's own when the back end is off)."""
+
+    stats: RBPFStats
+    map_bytes: int
+    tiles_in_use: int
+    particle_trajectory: Trajectory
     trajectory: Trajectory
+    grid: OccupancyGrid
     wall_time: float
+    filter_time: float
     log_duration: float
+    loop_closure: LoopClosureResult | None = None
     warnings: list[str] = field(default_factory=list)
 
 
@@ -32,11 +44,15 @@ def per_scan_poses(update_of_scan: np.ndarray, scan_odometry: np.ndarray,
 
 def slam_from_log(log_path, config: RBPFConfig | None = None, seed: int = 0,
                   on_scan=None) -> SlamRun:
-    """Feed every laser record of a log to a fresh filter; ``on_scan()`` is called per record."""
+    """Feed every laser record of a log to a fresh filter, then close its loops;
+    ``on_scan()`` is called per record."""
+    config = config or RBPFConfig()
     stamps: list[str] = []
     times: list[float] = []
     odometry: list[np.ndarray] = []
+    scans = []
     update_of_scan: list[int] = []
+    is_update: list[bool] = []
     slam: RBPFSlam | None = None
     warnings: list[str] = []
     started = time.perf_counter()
@@ -44,10 +60,11 @@ def slam_from_log(log_path, config: RBPFConfig | None = None, seed: int = 0,
         for record in laser_records(log_path):
             if slam is None:
                 slam = RBPFSlam(config, seed=seed, initial_pose=record.odom)
-            slam.step(record.odom, record.scan)
+            is_update.append(slam.step(record.odom, record.scan))
             stamps.append(record.stamp.ipc_text)
             times.append(record.stamp.ipc_time)
             odometry.append(record.odom)
+            scans.append(record.scan)
             update_of_scan.append(slam.stats.updates - 1)
             if on_scan is not None:
                 on_scan()
@@ -55,11 +72,30 @@ def slam_from_log(log_path, config: RBPFConfig | None = None, seed: int = 0,
         warnings.append(str(exc))
     if slam is None:
         raise ValueError(f"{log_path}: no laser records")
-    wall = time.perf_counter() - started
+    filter_time = time.perf_counter() - started
     updates, poses = slam.best_path()
     update_poses = np.empty((slam.stats.updates, 3))
     update_poses[updates] = poses
-    per_scan = per_scan_poses(np.array(update_of_scan), np.array(odometry),
-                              np.array(slam.update_odometry), update_poses)
+    update_of_scan = np.array(update_of_scan)
+    odometry = np.array(odometry)
+    update_odometry = np.array(slam.update_odometry)
+    particle = Trajectory(stamps, per_scan_poses(update_of_scan, odometry, update_odometry, update_poses))
     duration = float(np.max(times) - np.min(times))
-    return SlamRun(slam, Trajectory(stamps, per_scan), wall, duration, warnings)
+    filtered = (slam.stats, slam.map_bytes(), slam.maps.tiles_in_use)
+    lc = config.loop_closure
+    if not lc.enabled:
+        return SlamRun(*filtered, particle, particle, slam.occupancy_map(), filter_time, filter_time,
+                       duration, None, warnings)
+    del slam  # the particles' maps: the back end renders its own
+    update_scans = [scans[k] for k in np.flatnonzero(is_update)]
+    closed, submaps = close_loops(update_poses, update_scans, lc, config.matcher, config.resolution,
+                                  config.sensor)
+    final = scan_poses(submaps, closed.poses, update_of_scan, odometry, update_odometry, scans, lc,
+                       config.matcher, config.sensor)
+    del submaps
+    grid = OccupancyGrid(config.resolution, model=config.sensor)
+    for pose, scan in zip(final[np.array(is_update)], update_scans, strict=True):
+        grid.integrate(scan, pose)
+    wall = time.perf_counter() - started
+    return SlamRun(*filtered, particle, Trajectory(stamps, final), grid, wall, filter_time, duration,
+                   closed, warnings)

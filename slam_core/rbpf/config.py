@@ -6,6 +6,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
+from slam_core.graph.config import LoopClosureConfig
 from slam_core.motion_model import OdometryMotionModel
 from slam_core.occupancy_grid import SensorModel, logit
 
@@ -94,7 +95,9 @@ class RBPFConfig:
     """The whole filter. ``linear_update`` / ``angular_update``: travel since the last
     update that triggers the next one (GMapping uses 1.0 m / 0.5 rad; updating
     more often costs time but keeps odometry's share of every pose small);
-    ``resample_threshold``: resample when ``N_eff < resample_threshold * N``."""
+    ``resample_threshold``: resample when ``N_eff < resample_threshold * N``;
+    ``loop_closure``: the back end that closes loops on the best particle's trajectory
+    after a log (:mod:`slam_core.graph.loop_closure`)."""
 
     particles: int = 30
     resolution: float = 0.05
@@ -104,6 +107,7 @@ class RBPFConfig:
     motion: OdometryMotionModel = field(default_factory=OdometryMotionModel)
     sensor: SensorModel = field(default_factory=SensorModel)
     matcher: MatcherParams = field(default_factory=MatcherParams)
+    loop_closure: LoopClosureConfig = field(default_factory=LoopClosureConfig)
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -111,7 +115,8 @@ class RBPFConfig:
     @classmethod
     def from_dict(cls, data: dict) -> RBPFConfig:
         data = dict(data)
-        parts = {"motion": OdometryMotionModel, "sensor": SensorModel, "matcher": MatcherParams}
+        parts = {"motion": OdometryMotionModel, "sensor": SensorModel, "matcher": MatcherParams,
+                 "loop_closure": LoopClosureConfig}
         for key, kind in parts.items():
             if key in data and isinstance(data[key], dict):
                 data[key] = kind(**data[key])

@@ -92,3 +92,91 @@ def search(field, resolution, window_x, window_y, px, py, pth, points, angular_h
                     by = py + dy * resolution
                     bth = th
     return bx, by, bth, best
+
+
+@njit
+def max_pool(field, block):
+    """``pooled[y, x] = max(field[y:y + block, x:x + block])`` (cells past the edge count as 0)."""
+    size_y, size_x = field.shape
+    rows = np.zeros((size_y, size_x), np.float32)
+    for y in range(size_y):
+        for x in range(size_x):
+            v = field[y, x]
+            for k in range(1, block):
+                if x + k < size_x and field[y, x + k] > v:
+                    v = field[y, x + k]
+            rows[y, x] = v
+    pooled = np.zeros((size_y, size_x), np.float32)
+    for y in range(size_y):
+        for x in range(size_x):
+            v = rows[y, x]
+            for k in range(1, block):
+                if y + k < size_y and rows[y + k, x] > v:
+                    v = rows[y + k, x]
+            pooled[y, x] = v
+    return pooled
+
+
+@njit
+def _score(field, cells_x, cells_y, dx, dy):
+    size_y, size_x = field.shape
+    total = 0.0
+    for b in range(cells_x.shape[0]):
+        xx = cells_x[b] + dx
+        yy = cells_y[b] + dy
+        if 0 <= xx < size_x and 0 <= yy < size_y:
+            total += field[yy, xx]
+    return total
+
+
+@njit
+def bounded_search(field, pooled, block, resolution, window_x, window_y, px, py, pth, points,
+                   angular_half, angular_step, linear_cells):
+    """The best pose ``(x, y, th, score)`` of an exhaustive search without prior, found by
+    branch and bound (Hess et al., ICRA 2016, with one level).
+
+    ``pooled`` is ``max_pool(field, block)``: its sum at a block's first offset bounds the
+    score of every offset in the block, so blocks are scored in the order of their bounds
+    until no bound beats the best score found.
+    """
+    n_rot = int(np.floor(angular_half / angular_step + 0.5))
+    rotations = 2 * n_rot + 1
+    n_pts = points.shape[0]
+    cells_x = np.empty((rotations, n_pts), np.int64)
+    cells_y = np.empty((rotations, n_pts), np.int64)
+    inv = 1.0 / resolution
+    for r in range(rotations):
+        th = pth + (r - n_rot) * angular_step
+        c = np.cos(th)
+        s = np.sin(th)
+        for b in range(n_pts):
+            ex = px + c * points[b, 0] - s * points[b, 1]
+            ey = py + s * points[b, 0] + c * points[b, 1]
+            cells_x[r, b] = int(np.floor((ex - window_x) * inv))
+            cells_y[r, b] = int(np.floor((ey - window_y) * inv))
+    width = 2 * linear_cells + 1
+    blocks = (width + block - 1) // block
+    bounds = np.empty(rotations * blocks * blocks)
+    for r in range(rotations):
+        for by in range(blocks):
+            for bx in range(blocks):
+                bounds[(r * blocks + by) * blocks + bx] = _score(
+                    pooled, cells_x[r], cells_y[r], bx * block - linear_cells, by * block - linear_cells)
+    order = np.argsort(-bounds)
+    best = -1.0
+    bx_best, by_best, r_best = 0, 0, n_rot
+    for k in range(order.shape[0]):
+        idx = order[k]
+        if bounds[idx] <= best:
+            break
+        r = idx // (blocks * blocks)
+        by = (idx // blocks) % blocks
+        bx = idx % blocks
+        for dy in range(by * block - linear_cells, min((by + 1) * block, width) - linear_cells):
+            for dx in range(bx * block - linear_cells, min((bx + 1) * block, width) - linear_cells):
+                total = _score(field, cells_x[r], cells_y[r], dx, dy)
+                if total > best:
+                    best = total
+                    bx_best, by_best, r_best = dx, dy, r
+    return (px + bx_best * resolution, py + by_best * resolution, pth + (r_best - n_rot) * angular_step,
+            best)

@@ -29,11 +29,14 @@ from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.rbpf.config import RBPFConfig
 from slam_core.rbpf.correlative import likelihood_window, search
 from slam_core.rbpf.proposal import improved_proposal
-from slam_core.rbpf.scan_matcher import P_OCCUPIED, match, pose_likelihood
+from slam_core.rbpf.scan_matcher import P_OCCUPIED, beam_rows, match, pose_likelihood
 from slam_core.rbpf.tiled_map import TiledMaps
 from slam_core.rbpf.trajectory_tree import ROOT, TrajectoryTree
 from slam_core.resampling import effective_sample_size, low_variance_resample, normalized
 from slam_core.scan import Scan
+
+#: Travel (m) between the starts that take back part of a reported motion.
+TAKE_BACK_STEP = 0.05
 
 
 @dataclass
@@ -90,6 +93,8 @@ class RBPFSlam:
             if not self._scan_disagrees(moved, scan):
                 return False
             self.stats.forced_updates += 1
+            self._update(self._last_odom, odometry, scan, forced=True)
+            return True
         self._update(self._last_odom, odometry, scan)
         return True
 
@@ -127,14 +132,19 @@ class RBPFSlam:
         self.maps.resample(np.zeros(self.config.particles, np.int64))  # one shared map
         self._finish_update(odometry)
 
-    def _update(self, odom0: np.ndarray, odom1: np.ndarray, scan: Scan) -> None:
+    def _update(self, odom0: np.ndarray, odom1: np.ndarray, scan: Scan, forced: bool = False) -> None:
         c = self.config
         m = c.matcher
         n = c.particles
         beams = self._matching_beams(scan, m.max_range, m.max_beams)
         motion = np.array(decompose(*odom0, *odom1))
         predicted = compose(self.poses, relative(odom0, odom1))
-        starts = compose(predicted, self._odometry_error(predicted, motion, scan, beams))
+        error = self._odometry_error(predicted, motion, scan, beams)
+        starts = compose(predicted, error)
+        floor = m.motion_floor()
+        if forced:
+            # the odometry missed this motion: its prediction is only as good as its error
+            floor = floor + np.array([error[0] ** 2 + error[1] ** 2] * 2 + [error[2] ** 2])
         noise = self.rng.standard_normal((n, 3))
         new_poses = np.empty((n, 3))
         log_eta = np.empty(n)
@@ -142,7 +152,7 @@ class RBPFSlam:
         improved_proposal(self.maps.tables, self.maps.lo, self.maps.hits, self.maps.origin[0],
                           self.maps.origin[1], self.maps.resolution, self.poses, starts, motion,
                           c.motion.alphas, beams, self._params, m.iterations, m.wide_iterations,
-                          max(1.0, m.min_matched * len(beams)), m.motion_floor(), noise,
+                          max(1.0, m.min_matched * len(beams)), floor, noise,
                           new_poses, log_eta, matched)
         self.poses = new_poses
         log_eta = log_eta / m.gain
@@ -216,17 +226,9 @@ class RBPFSlam:
         step = m.lead_rotation_step
         best, best_ll, matched = self._best_heading(fine, pred, beams, step * np.arange(
             -m.lead_rotations, m.lead_rotations + 1))
-        turn = motion[0] + motion[2]
-        wide = int(np.ceil(abs(turn) / step))
-        if matched < m.good_match * len(beams) and wide > m.lead_rotations:
-            # an odometry that lags reports a turn after the robot made it, when the scans
-            # have shown it already: try headings that take back up to the whole reported
-            # turn, trusted only where the scan then fits well
-            self.stats.wide_heading_searches += 1
-            offsets = -np.sign(turn) * step * np.arange(m.lead_rotations + 1, wide + 1)
-            pose, ll, n = self._best_heading(fine, pred, beams, offsets)
-            if ll > best_ll and n >= m.good_match * len(beams):
-                best, best_ll, matched = pose, ll, n
+        reported = relative(self.poses[lead], pred)
+        if matched < m.good_match * len(beams):
+            best, best_ll, matched = self._take_back(fine, lead, reported, beams, best, best_ll, matched)
         points = self._matching_beams(scan, m.coarse_range, m.coarse_beams)[:, :2]
         if matched >= m.good_match * len(beams) or len(points) == 0:
             return relative(pred, best)
@@ -248,6 +250,32 @@ class RBPFSlam:
             best = np.array([x, y, th])
         return relative(pred, best)
 
+    def _take_back(self, fine: tuple, lead: int, reported: np.ndarray, beams: np.ndarray,
+                   best: np.ndarray, best_ll: float, matched: int):
+        """Try starts that take back part of a large reported motion.
+
+        An odometry that stalls and then catches up reports, in one step, motion the scans
+        showed during the stall, which the filter followed then (forced updates). The
+        starts are the reported motion scaled by ``1 - k / steps``, the steps fine enough
+        for the matcher to capture (``lead_rotation_step`` in heading, 5 cm in travel); the
+        likeliest wins where the scan then fits well.
+        """
+        m = self.config.matcher
+        turn_steps = int(np.ceil(abs(reported[2]) / m.lead_rotation_step))
+        travel = np.hypot(reported[0], reported[1])
+        if turn_steps <= m.lead_rotations and travel <= 2.0 * self.config.linear_update:
+            return best, best_ll, matched
+        steps = max(turn_steps, int(np.ceil(travel / TAKE_BACK_STEP)))
+        self.stats.wide_heading_searches += 1
+        for k in range(1, steps + 1):
+            start = compose(self.poses[lead], reported * (1.0 - k / steps))
+            x, y, th, _, n = match(*fine, start[0], start[1], start[2], beams, self._params,
+                                   m.iterations, m.wide_iterations)
+            ll, _ = pose_likelihood(*fine, x, y, th, beams, self._params)
+            if ll > best_ll and n >= m.good_match * len(beams):
+                best, best_ll, matched = np.array([x, y, th]), ll, n
+        return best, best_ll, matched
+
     def _best_heading(self, fine: tuple, pred: np.ndarray, beams: np.ndarray,
                       offsets: np.ndarray) -> tuple[np.ndarray, float, int]:
         """The likeliest fine match from ``pred`` turned by each offset: ``(pose, ll, matched)``."""
@@ -262,12 +290,4 @@ class RBPFSlam:
         return best, best_ll, matched
 
     def _matching_beams(self, scan: Scan, max_range: float, max_beams: int) -> np.ndarray:
-        """Rows ``(px, py, ux, uy)`` of up to ``max_beams`` evenly spread echoes."""
-        r = scan.ranges
-        use = scan.valid & (r <= min(max_range, self.config.sensor.usable_range))
-        idx = np.flatnonzero(use)
-        if len(idx) > max_beams:
-            idx = idx[np.linspace(0, len(idx) - 1, max_beams).round().astype(int)]
-        a = scan.angles[idx]
-        ux, uy = np.cos(a), np.sin(a)
-        return np.ascontiguousarray(np.column_stack([r[idx] * ux, r[idx] * uy, ux, uy]))
+        return beam_rows(scan, min(max_range, self.config.sensor.usable_range), max_beams)

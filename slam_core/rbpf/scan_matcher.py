@@ -182,6 +182,18 @@ def _residual(table, lo, hits, origin_x, origin_y, resolution, c, s, x, y, beam,
     return 2, ex - sx, ey - sy, d2
 
 
+def beam_rows(scan, max_range: float, max_beams: int) -> np.ndarray:
+    """Rows ``(px, py, ux, uy)`` (endpoint and unit direction, sensor frame) of up to
+    ``max_beams`` evenly spread echoes no longer than ``max_range``."""
+    r = scan.ranges
+    idx = np.flatnonzero(scan.valid & (r <= max_range))
+    if len(idx) > max_beams:
+        idx = idx[np.linspace(0, len(idx) - 1, max_beams).round().astype(int)]
+    a = scan.angles[idx]
+    ux, uy = np.cos(a), np.sin(a)
+    return np.ascontiguousarray(np.column_stack([r[idx] * ux, r[idx] * uy, ux, uy]))
+
+
 @njit
 def pose_likelihood(table, lo, hits, origin_x, origin_y, resolution, x, y, th, beams, params):
     """``(log_likelihood, matched)`` of a pose: the truncated Gaussian beam model."""

@@ -1,0 +1,45 @@
+"""Settings of the loop-closing back end (lengths in metres, angles in radians)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class LoopClosureConfig:
+    """How the back end finds loop closures and weighs them against the filter's path.
+
+    ``submap_updates``: consecutive filter updates rendered into one submap;
+    ``min_loop_path``: path length that must separate an update from a submap
+    before the two can close a loop; ``search_radius``: how near (by the current
+    estimate) a submap's anchor must be; ``linear_window`` / ``angular_window``:
+    the half-widths of the correlative search around the expected pose;
+    ``candidates``: the nearest submaps tried per update; ``accept_fit``: the
+    fraction of beams that must find a surface at the match;
+    ``information_scale``: the matcher's information is multiplied by it (beams
+    are far from independent); ``chain_sigma_*``: the standard error of the
+    filter's step between consecutive updates, a floor plus a share of the
+    step's travel and turn; ``outlier_chi2``: loop edges whose error, after
+    optimising, exceeds this (in ``e^T Omega e``) are dropped; ``rounds``:
+    searches, each from the poses the previous one optimised; ``refine_fit``:
+    the fraction of beams that must fit for a scan to take its pose matched
+    against its submap.
+    """
+
+    enabled: bool = True
+    submap_updates: int = 20
+    min_loop_path: float = 8.0
+    search_radius: float = 2.5
+    linear_window: float = 0.6
+    angular_window: float = 0.15
+    candidates: int = 2
+    accept_fit: float = 0.7
+    information_scale: float = 0.02
+    chain_sigma_xy: float = 0.01
+    chain_sigma_th: float = 0.002
+    chain_sigma_per_metre: float = 0.02
+    chain_sigma_th_per_metre: float = 0.002
+    chain_sigma_per_radian: float = 0.02
+    outlier_chi2: float = 16.0
+    rounds: int = 2
+    refine_fit: float = 0.6

@@ -1,0 +1,281 @@
+"""Loop closing for a particle filter's trajectory: submap matching and a pose graph.
+
+A particle filter closes a loop only if one of its particles happens to lie near
+the true pose when the robot re-enters known ground; after a long loop the
+cloud is far narrower than the drift, so the loop may stay open (the map
+doubles) or close with a jump. This back end takes the best particle's
+trajectory at its filter updates and
+
+1. cuts it into *submaps*: runs of consecutive updates whose scans are rendered,
+   at the filter's poses, into a small map of their own (locally the filter is
+   accurate, so a submap is rigid; it is anchored at its middle update);
+2. matches the scan of every update against the submaps the robot passed long
+   before (by path length) whose anchors lie near it: a correlative search over
+   a window wide enough for the drift (a best pose on the window's rim is a false
+   peak and is dropped), then the filter's Gauss-Newton point-to-line matcher; a
+   match that explains enough beams becomes a loop edge from the submap's anchor
+   to that update, weighted with the matcher's information;
+3. optimises the pose graph of the loop edges and the chain of the filter's own
+   steps (:mod:`slam_core.graph.pose_graph`, Huber-robust on loop edges), drops
+   loop edges that still disagree, optimises again; the next round searches
+   again from the optimised poses, which finds the closures the drift hid.
+
+Every scan then gets its update's optimised pose moved by the odometry since, and
+is matched against its update's submap (:func:`scan_poses`). Matching runs
+on every core (the kernels release the GIL), one submap per task.
+"""
+
+from __future__ import annotations
+
+import os
+import threading
+from collections import OrderedDict
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+
+import numpy as np
+
+from slam_core.geometry import compose, relative
+from slam_core.graph.config import LoopClosureConfig
+from slam_core.graph.pose_graph import PoseGraph, chain_edges, optimize
+from slam_core.occupancy_grid import SensorModel
+from slam_core.rbpf.config import MatcherParams
+from slam_core.rbpf.correlative import bounded_search, likelihood_window, max_pool
+from slam_core.rbpf.scan_matcher import P_OCCUPIED, beam_rows, match, pose_likelihood
+from slam_core.rbpf.tiled_map import TiledMaps
+from slam_core.scan import Scan
+
+#: Submaps kept built at once (they are rebuilt on demand).
+CACHED_SUBMAPS = 6
+#: Side (cells) of the blocks whose bounds the branch and bound search scores first.
+BLOCK_CELLS = 4
+
+
+@dataclass
+class LoopClosureResult:
+    poses: np.ndarray
+    loop_edges: int = 0
+    rejected_edges: int = 0
+    candidates_tried: int = 0
+
+    def stats(self) -> dict:
+        return {"loop_edges": self.loop_edges, "rejected_loop_edges": self.rejected_edges,
+                "loop_candidates_tried": self.candidates_tried}
+
+
+class Submap:
+    """Scans of consecutive updates rendered at their poses into one small map,
+    with the likelihood field of the correlative search over its whole extent."""
+
+    def __init__(self, updates: np.ndarray, poses: np.ndarray, scans: list[Scan], resolution: float,
+                 model: SensorModel, matcher: MatcherParams, params: np.ndarray, reach: float):
+        self.updates = updates
+        self.anchor = int(updates[len(updates) // 2])
+        self.anchor_pose = poses[self.anchor].copy()
+        self.maps = TiledMaps(1, resolution, model, capacity=512)
+        for u in updates:
+            self.maps.integrate(poses[u][None, :], scans[u])
+        m = self.maps
+        half = int(np.ceil(reach / resolution))  # where the endpoints of a query can land
+        centre = np.floor((self.anchor_pose[:2] - m.origin) / resolution).astype(int)
+        self.field = likelihood_window(m.tables[0], m.lo, m.origin[0], m.origin[1], resolution, centre[0],
+                                       centre[1], half, params[P_OCCUPIED], matcher.coarse_sigma,
+                                       matcher.coarse_reach_cells)
+        self.field_corner = m.origin + (centre - half) * resolution
+        self.pooled = max_pool(self.field, BLOCK_CELLS)
+
+    def fine(self) -> tuple:
+        m = self.maps
+        return m.tables[0], m.lo, m.hits, m.origin[0], m.origin[1], m.resolution
+
+    def in_frame(self, estimate: np.ndarray, pose: np.ndarray) -> np.ndarray:
+        """``pose`` (in the frame of ``estimate``, the anchor's current pose) in the submap's frame."""
+        return compose(self.anchor_pose, relative(estimate, pose))
+
+
+class Submaps:
+    """The trajectory's submaps, built when first asked for and kept while recently used."""
+
+    def __init__(self, poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig, resolution: float,
+                 model: SensorModel, matcher: MatcherParams, params: np.ndarray):
+        n = len(poses)
+        size = config.submap_updates
+        self.ranges = [np.arange(a, min(a + size, n)) for a in range(0, n, size)]
+        self.anchors = np.array([r[len(r) // 2] for r in self.ranges], np.int64)
+        self.ends = np.array([r[-1] for r in self.ranges], np.int64)
+        reach = (config.search_radius + config.linear_window + matcher.coarse_range
+                 + matcher.coarse_reach_cells * resolution)
+        self._args = (poses, scans, resolution, model, matcher, params, reach)
+        self._built: OrderedDict[int, Submap] = OrderedDict()
+        self._lock = threading.Lock()
+
+    def __len__(self) -> int:
+        return len(self.ranges)
+
+    def __getitem__(self, s: int) -> Submap:
+        with self._lock:
+            if s in self._built:
+                self._built.move_to_end(s)
+                return self._built[s]
+        sub = Submap(self.ranges[s], *self._args)
+        with self._lock:
+            self._built[s] = sub
+            if len(self._built) > CACHED_SUBMAPS:
+                self._built.popitem(last=False)
+        return sub
+
+    def of_update(self, u: int) -> int:
+        return int(np.searchsorted(self.ends, u))
+
+
+def _match(sub: Submap, start: np.ndarray, beams: np.ndarray, points: np.ndarray,
+           config: LoopClosureConfig, matcher: MatcherParams, params: np.ndarray):
+    """``(pose, info, fit)`` of one scan in the submap's frame, searched around ``start``;
+    ``None`` when the correlative search's best pose lies on its window's rim."""
+    res = sub.maps.resolution
+    linear_cells = int(np.ceil(config.linear_window / res))
+    sx, sy, sth, _ = bounded_search(sub.field, sub.pooled, BLOCK_CELLS, res, sub.field_corner[0],
+                                    sub.field_corner[1], start[0], start[1], start[2], points,
+                                    config.angular_window, matcher.coarse_angular_step, linear_cells)
+    rim = (max(abs(sx - start[0]), abs(sy - start[1])) >= (linear_cells - 0.5) * res
+           or abs(sth - start[2]) >= config.angular_window - 0.5 * matcher.coarse_angular_step)
+    if rim:
+        return None
+    fine = sub.fine()
+    x, y, th, info, _ = match(*fine, sx, sy, sth, beams, params, matcher.iterations, matcher.wide_iterations)
+    _, fitting = pose_likelihood(*fine, x, y, th, beams, params)
+    return np.array([x, y, th]), info, fitting / max(len(beams), 1)
+
+
+def close_loops(poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig | None = None,
+                matcher: MatcherParams | None = None, resolution: float = 0.05,
+                model: SensorModel | None = None) -> tuple[LoopClosureResult, Submaps]:
+    """Loop-closed poses for the filter's poses at its updates with their scans; also the
+    submaps (for :func:`scan_poses`)."""
+    config = config or LoopClosureConfig()
+    matcher = matcher or MatcherParams()
+    model = model or SensorModel()
+    poses = np.asarray(poses, dtype=float)
+    params = matcher.packed()
+    submaps = Submaps(poses, scans, config, resolution, model, matcher, params)
+    n = len(poses)
+    result = LoopClosureResult(poses.copy())
+    if not config.enabled or n < 2:
+        return result, submaps
+    path = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(poses[:, :2], axis=0).T))])
+    reach = min(matcher.max_range, model.usable_range)
+    chain = _chain_information(poses, config)
+    estimate = poses.copy()
+    edges: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
+    for _ in range(config.rounds):
+        pairs: dict[int, list[int]] = {}
+        for q in range(n):
+            for s in _candidates(q, estimate, path, submaps, config):
+                if (s, q) not in edges:
+                    pairs.setdefault(s, []).append(q)
+
+        def try_submap(s: int, queries: list[int], estimate=estimate):
+            sub = submaps[s]
+            found = []
+            for q in queries:
+                beams = beam_rows(scans[q], reach, matcher.max_beams)
+                points = beam_rows(scans[q], min(matcher.coarse_range, reach), matcher.coarse_beams)[:, :2]
+                if len(points) == 0:
+                    continue
+                hit = _match(sub, sub.in_frame(estimate[sub.anchor], estimate[q]), beams, points,
+                             config, matcher, params)
+                if hit is not None and hit[2] >= config.accept_fit:
+                    found.append((q, relative(sub.anchor_pose, hit[0]), hit[1] * config.information_scale))
+            return s, found
+
+        result.candidates_tried += sum(len(v) for v in pairs.values())
+        with ThreadPoolExecutor(os.cpu_count() or 1) as pool:
+            for s, found in pool.map(lambda item: try_submap(*item), sorted(pairs.items())):
+                for q, z, info in found:
+                    edges[(s, q)] = (z, info)
+        graph = _graph(poses, chain, submaps, edges)
+        estimate = optimize(graph)
+        loops = np.arange(n - 1, graph.n_edges)
+        bad = loops[graph.chi2(estimate)[loops] > config.outlier_chi2]
+        if len(bad):
+            keys = list(edges)
+            for k in bad:
+                del edges[keys[k - (n - 1)]]
+            result.rejected_edges += len(bad)
+            estimate = optimize(_graph(poses, chain, submaps, edges))
+    result.poses = estimate
+    result.loop_edges = len(edges)
+    return result, submaps
+
+
+def scan_poses(submaps: Submaps, update_poses: np.ndarray, update_of_scan: np.ndarray,
+               scan_odometry: np.ndarray, update_odometry: np.ndarray, scans: list[Scan],
+               config: LoopClosureConfig | None = None, matcher: MatcherParams | None = None,
+               model: SensorModel | None = None) -> np.ndarray:
+    """A pose for every scan: its update's optimised pose moved by the odometry since, then
+    matched finely against that update's submap where it fits well.
+
+    The filter's own poses are draws from its proposal, each a little off the likeliest
+    pose; the match takes the likeliest pose given the submap's other scans, and gives
+    the scans between updates a pose of their own instead of the odometry's."""
+    config = config or LoopClosureConfig()
+    matcher = matcher or MatcherParams()
+    model = model or SensorModel()
+    params = matcher.packed()
+    reach = min(matcher.max_range, model.usable_range)
+    out = compose(update_poses[update_of_scan], relative(update_odometry[update_of_scan], scan_odometry))
+    if not config.enabled:
+        return out
+    by_submap: dict[int, list[int]] = {}
+    for k, u in enumerate(update_of_scan):
+        by_submap.setdefault(submaps.of_update(int(u)), []).append(k)
+
+    def refine(s: int, ks: list[int]) -> None:
+        sub = submaps[s]
+        fine = sub.fine()
+        anchor = update_poses[sub.anchor]
+        for k in ks:
+            beams = beam_rows(scans[k], reach, matcher.max_beams)
+            if len(beams) == 0:
+                continue
+            start = sub.in_frame(anchor, out[k])
+            x, y, th, _, _ = match(*fine, *start, beams, params, matcher.iterations, matcher.wide_iterations)
+            _, fitting = pose_likelihood(*fine, x, y, th, beams, params)
+            if fitting >= config.refine_fit * len(beams):
+                out[k] = compose(anchor, relative(sub.anchor_pose, np.array([x, y, th])))
+
+    with ThreadPoolExecutor(os.cpu_count() or 1) as pool:
+        list(pool.map(lambda item: refine(*item), sorted(by_submap.items())))
+    return out
+
+
+def _chain_information(poses: np.ndarray, config: LoopClosureConfig) -> np.ndarray:
+    """Information of each filter step: a floor plus noise growing with the step's motion."""
+    rel = relative(poses[:-1], poses[1:])
+    dist = np.hypot(rel[:, 0], rel[:, 1])
+    sxy = config.chain_sigma_xy + config.chain_sigma_per_metre * dist
+    sth = (config.chain_sigma_th + config.chain_sigma_per_radian * np.abs(rel[:, 2])
+           + config.chain_sigma_th_per_metre * dist)
+    info = np.zeros((len(rel), 3, 3))
+    info[:, 0, 0] = info[:, 1, 1] = 1.0 / sxy ** 2
+    info[:, 2, 2] = 1.0 / sth ** 2
+    return info
+
+
+def _graph(poses, chain, submaps: Submaps, edges) -> PoseGraph:
+    graph = PoseGraph(poses)
+    chain_edges(graph, poses, chain)
+    for (s, q), (z, info) in edges.items():
+        graph.add_edge(int(submaps.anchors[s]), q, z, info, robust=True)
+    return graph
+
+
+def _candidates(q: int, estimate: np.ndarray, path: np.ndarray, submaps: Submaps,
+                config: LoopClosureConfig) -> list[int]:
+    """The nearest submaps (at most ``candidates``) passed long before update ``q``."""
+    old = np.flatnonzero(path[q] - path[submaps.ends] >= config.min_loop_path)
+    if len(old) == 0:
+        return []
+    d = np.hypot(*(estimate[submaps.anchors[old], :2] - estimate[q, :2]).T)
+    near = np.argsort(d)[:config.candidates]
+    return [int(old[k]) for k in near if d[k] < config.search_radius]

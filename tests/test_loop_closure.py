@@ -1,0 +1,116 @@
+"""The loop-closing back end: branch and bound against exhaustive search, loops closed
+on a drifted trajectory against ground truth, scans between updates re-matched."""
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from slam_core.geometry import compose, relative, wrap_angle
+from slam_core.graph.config import LoopClosureConfig
+from slam_core.graph.loop_closure import close_loops, scan_poses
+from slam_core.rbpf.correlative import bounded_search, max_pool, search
+from tests.synthetic_room import room_scan
+
+CONFIG = LoopClosureConfig(submap_updates=10, min_loop_path=4.0)
+
+
+def two_laps(n=160):
+    """True poses driving twice around an ellipse in the synthetic room."""
+    t = np.linspace(0, 4 * np.pi, n)
+    x, y = 0.5 + 2.0 * np.cos(t), 0.4 + 1.3 * np.sin(t)
+    th = np.arctan2(np.gradient(y), np.gradient(x))
+    return np.column_stack([x, y, th])
+
+
+def drifted(truth, turn_bias=0.002, scale=1.01):
+    """The same path as a filter with a heading bias would report it (locally right, globally bent)."""
+    steps = relative(truth[:-1], truth[1:]) * np.array([scale, scale, 1.0])
+    steps[:, 2] += turn_bias
+    out = [truth[0].copy()]
+    for s in steps:
+        out.append(compose(out[-1], s))
+    return np.array(out)
+
+
+def errors(truth, poses):
+    return (np.hypot(*(truth[:, :2] - poses[:, :2]).T),
+            np.abs(wrap_angle(truth[:, 2] - poses[:, 2])))
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(0, 10_000), st.sampled_from([2, 3, 4, 5]))
+def test_branch_and_bound_finds_the_exhaustive_searchs_optimum(seed, block):
+    rng = np.random.default_rng(seed)
+    field = np.where(rng.random((120, 140)) < 0.05, rng.random((120, 140)), 0.0).astype(np.float32)
+    points = rng.uniform(-2.5, 2.5, (40, 2))
+    px, py, pth = rng.uniform(2.5, 4.5), rng.uniform(2.5, 3.5), rng.uniform(-np.pi, np.pi)
+    cells = int(rng.integers(3, 12))
+    exhaustive = search(field, 0.05, 0.0, 0.0, px, py, pth, points, 0.1, 0.02, cells, 1e9, 1e9)
+    bounded = bounded_search(field, max_pool(field, block), block, 0.05, 0.0, 0.0, px, py, pth, points,
+                             0.1, 0.02, cells)
+    assert abs(bounded[3] - exhaustive[3]) <= 1e-5 * max(1.0, exhaustive[3])
+
+
+def test_max_pool_is_the_maximum_over_each_block():
+    rng = np.random.default_rng(3)
+    field = rng.random((9, 11)).astype(np.float32)
+    pooled = max_pool(field, 3)
+    for y in range(9):
+        for x in range(11):
+            assert pooled[y, x] == field[y:y + 3, x:x + 3].max()
+
+
+def test_loops_close_on_a_drifted_trajectory():
+    truth = two_laps()
+    bent = drifted(truth)
+    rng = np.random.default_rng(0)
+    scans = [room_scan(p, 360, noise=0.01, rng=rng) for p in truth]
+    result, _ = close_loops(bent, scans, CONFIG)
+    before, _ = errors(truth, bent)
+    after, after_th = errors(truth, result.poses)
+    assert result.loop_edges > 20
+    assert before.max() > 0.5  # the second lap is far off the first
+    assert after.mean() < 0.03 and after.max() < 0.08, (after.mean(), after.max())
+    assert np.degrees(after_th.max()) < 1.5
+    assert after.mean() < 0.1 * before.mean()
+
+
+def test_a_straight_trajectory_is_left_where_it_is():
+    truth = two_laps()
+    rng = np.random.default_rng(1)
+    scans = [room_scan(p, 360, noise=0.01, rng=rng) for p in truth]
+    result, _ = close_loops(truth, scans, CONFIG)
+    after, after_th = errors(truth, result.poses)
+    assert result.loop_edges > 20
+    assert after.max() < 0.03 and np.degrees(after_th.max()) < 1.0
+
+
+def test_disabled_back_end_returns_the_input():
+    truth = two_laps(40)
+    scans = [room_scan(p, 90) for p in truth]
+    result, _ = close_loops(truth + 0.1, scans, LoopClosureConfig(enabled=False))
+    assert np.array_equal(result.poses, truth + 0.1) and result.loop_edges == 0
+
+
+def test_every_scan_is_matched_instead_of_trusting_stale_odometry_or_noisy_poses():
+    # every other scan is an update, at a pose off by sampling noise; the odometry of the
+    # scans between stalled (it repeats the update's reading), leaving them a step (9 cm,
+    # within the fine matcher's reach) behind
+    truth = two_laps(240)
+    rng = np.random.default_rng(2)
+    scans = [room_scan(p, 360, noise=0.01, rng=rng) for p in truth]
+    is_update = np.arange(len(truth)) % 2 == 0
+    update_of_scan = np.cumsum(is_update) - 1
+    noisy = truth[is_update] + rng.normal(0.0, [0.02, 0.02, 0.005], (is_update.sum(), 3))
+    odometry = truth.copy()
+    odometry[~is_update] = truth[np.flatnonzero(~is_update) - 1]
+    closed, submaps = close_loops(noisy, [scans[k] for k in np.flatnonzero(is_update)], CONFIG)
+    poses = scan_poses(submaps, closed.poses, update_of_scan, odometry, odometry[is_update], scans,
+                       CONFIG)
+    stale, stale_th = errors(truth[~is_update], closed.poses[update_of_scan[~is_update]])
+    err, err_th = errors(truth, poses)
+    noise, _ = errors(truth[is_update], noisy)
+    assert stale.mean() > 0.08
+    assert err[~is_update].mean() < 0.02
+    assert err_th[~is_update].mean() < 0.5 * stale_th.mean()
+    assert err[is_update].mean() < 0.6 * noise.mean()
