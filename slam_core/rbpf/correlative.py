@@ -9,6 +9,10 @@ the distance from the prediction. The filter uses the best particle's map to
 find the odometry's error once per update; every particle's own fine match
 then starts from its prediction corrected by that error, which widens the
 capture range of the fine matcher far beyond its 3 x 3 kernel.
+
+The loop-closing back end searches far wider windows without a prior; there
+:func:`bounded_search` finds the same optimum by branch and bound over blocks
+of offsets, bounded by a max-pooled field (:func:`max_pool`).
 """
 
 from __future__ import annotations

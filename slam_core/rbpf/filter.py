@@ -10,10 +10,14 @@ did (the odometry missed a motion). One update:
 0. find the odometry's error on the leading particle's map
    (:meth:`RBPFSlam._odometry_error`), which every particle's match starts from;
 1. draw every particle's pose from the improved proposal and weight it
-   (:mod:`slam_core.rbpf.proposal`);
+   (:mod:`slam_core.rbpf.proposal`); in an update the scan forced, the motion
+   prior is widened by the error found in step 0, which the odometry just missed;
 2. if ``N_eff`` fell below the threshold, resample (low variance); copies share
    their map tiles and their trajectory history;
 3. integrate the scan into every particle's map at its new pose.
+
+Loops the particles could not close are closed afterwards on the best
+particle's trajectory by :mod:`slam_core.graph.loop_closure`.
 """
 
 from __future__ import annotations
@@ -49,7 +53,7 @@ class RBPFStats:
     matched: int = 0
     fallbacks: int = 0
     coarse_searches: int = 0
-    wide_heading_searches: int = 0
+    take_back_searches: int = 0
     forced_updates: int = 0
     last_neff: float = 0.0
 
@@ -266,7 +270,7 @@ class RBPFSlam:
         if turn_steps <= m.lead_rotations and travel <= 2.0 * self.config.linear_update:
             return best, best_ll, matched
         steps = max(turn_steps, int(np.ceil(travel / TAKE_BACK_STEP)))
-        self.stats.wide_heading_searches += 1
+        self.stats.take_back_searches += 1
         for k in range(1, steps + 1):
             start = compose(self.poses[lead], reported * (1.0 - k / steps))
             x, y, th, _, n = match(*fine, start[0], start[1], start[2], beams, self._params,
