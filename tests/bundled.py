@@ -6,7 +6,7 @@ from dataclasses import dataclass
 from functools import cache
 
 from slam_core.datasets import BUNDLED
-from slam_core.io.carmen import CarmenReader, LaserRecord, OdomRecord
+from slam_core.io.carmen import CarmenReader, LaserRecord, OdomRecord, open_log
 
 
 @dataclass(frozen=True)
@@ -29,3 +29,15 @@ def read_bundled(name: str) -> BundledLog:
         else:
             others.append(rec)
     return BundledLog(lasers, odometry, others, dict(reader.skipped))
+
+
+def log_slice(name: str, path, lasers: int):
+    """Write the lines of a bundled log up to its ``lasers``-th laser line to ``path``."""
+    with open_log(BUNDLED[name][0]) as src, open(path, "wb") as dst:
+        seen = 0
+        for line in src:
+            dst.write(line)
+            seen += line.startswith(b"FLASER")
+            if seen == lasers:
+                break
+    return path

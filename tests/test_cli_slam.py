@@ -9,23 +9,15 @@ import yaml
 from app.cli import main
 from slam_core.datasets import BUNDLED
 from slam_core.evaluation import load_relations, relation_error
-from slam_core.io.carmen import open_log
 from slam_core.io.trajectory import Trajectory
 from slam_core.pipelines.log_slam import slam_from_log
 from slam_core.rbpf import RBPFConfig
+from tests.bundled import log_slice
 
 
 @pytest.fixture(scope="module")
 def mit_slice(tmp_path_factory):
-    sliced = tmp_path_factory.mktemp("log") / "mit-slice.clf"
-    with open_log(BUNDLED["mit-csail"][0]) as src, open(sliced, "wb") as dst:
-        lasers = 0
-        for line in src:
-            dst.write(line)
-            lasers += line.startswith(b"FLASER")
-            if lasers == 300:
-                break
-    return sliced
+    return log_slice("mit-csail", tmp_path_factory.mktemp("log") / "mit-slice.clf", 300)
 
 
 def test_slam_writes_the_map_both_trajectories_the_config_and_stats(mit_slice, tmp_path, capsys):

@@ -141,17 +141,10 @@ def test_slice_of_the_mit_csail_log_stays_accurate(tmp_path):
     """
     from slam_core.datasets import BUNDLED
     from slam_core.evaluation import load_relations
-    from slam_core.io.carmen import open_log
+    from tests.bundled import log_slice
 
-    log, relations = BUNDLED["mit-csail"]
-    sliced = tmp_path / "mit-slice.clf"
-    with open_log(log) as src, open(sliced, "wb") as dst:
-        lasers = 0
-        for line in src:
-            dst.write(line)
-            lasers += line.startswith(b"FLASER")
-            if lasers == 400:
-                break
+    relations = BUNDLED["mit-csail"][1]
+    sliced = log_slice("mit-csail", tmp_path / "mit-slice.clf", 400)
     run = slam_from_log(sliced, RBPFConfig(), seed=0)
     traj = run.trajectory
     assert len(traj.stamps) == 400

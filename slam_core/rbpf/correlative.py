@@ -56,6 +56,31 @@ def likelihood_window(table, lo, origin_x, origin_y, resolution, cx, cy, half_ce
 
 
 @njit
+def _score(field, cells_x, cells_y, dx, dy):
+    """Sum of the field at the cells shifted by ``(dx, dy)`` (cells off the field count 0)."""
+    size_y, size_x = field.shape
+    total = 0.0
+    for b in range(cells_x.shape[0]):
+        xx = cells_x[b] + dx
+        yy = cells_y[b] + dy
+        if 0 <= xx < size_x and 0 <= yy < size_y:
+            total += field[yy, xx]
+    return total
+
+
+@njit
+def _cells(px, py, th, points, window_x, window_y, inv, cells_x, cells_y):
+    """The field cells of ``points`` (robot frame) seen from ``(px, py, th)``."""
+    c = np.cos(th)
+    s = np.sin(th)
+    for b in range(points.shape[0]):
+        ex = px + c * points[b, 0] - s * points[b, 1]
+        ey = py + s * points[b, 0] + c * points[b, 1]
+        cells_x[b] = int(np.floor((ex - window_x) * inv))
+        cells_y[b] = int(np.floor((ey - window_y) * inv))
+
+
+@njit
 def search(field, resolution, window_x, window_y, px, py, pth, points, angular_half, angular_step,
            linear_cells, sigma_xy, sigma_th):
     """Best pose ``(x, y, th, score)`` in the window around ``(px, py, pth)``.
@@ -64,7 +89,6 @@ def search(field, resolution, window_x, window_y, px, py, pth, points, angular_h
     corner in metres); ``points`` are beam endpoints ``(n, 2)`` in the robot frame.
     """
     n_rot = int(np.floor(angular_half / angular_step + 0.5))
-    size_y, size_x = field.shape
     best = -1.0
     bx, by, bth = px, py, pth
     cells_x = np.empty(points.shape[0], np.int64)
@@ -72,22 +96,11 @@ def search(field, resolution, window_x, window_y, px, py, pth, points, angular_h
     inv = 1.0 / resolution
     for r in range(-n_rot, n_rot + 1):
         th = pth + r * angular_step
-        c = np.cos(th)
-        s = np.sin(th)
-        for b in range(points.shape[0]):
-            ex = px + c * points[b, 0] - s * points[b, 1]
-            ey = py + s * points[b, 0] + c * points[b, 1]
-            cells_x[b] = int(np.floor((ex - window_x) * inv))
-            cells_y[b] = int(np.floor((ey - window_y) * inv))
+        _cells(px, py, th, points, window_x, window_y, inv, cells_x, cells_y)
         prior_th = (r * angular_step) ** 2 / (sigma_th * sigma_th)
         for dy in range(-linear_cells, linear_cells + 1):
             for dx in range(-linear_cells, linear_cells + 1):
-                total = 0.0
-                for b in range(points.shape[0]):
-                    xx = cells_x[b] + dx
-                    yy = cells_y[b] + dy
-                    if 0 <= xx < size_x and 0 <= yy < size_y:
-                        total += field[yy, xx]
+                total = _score(field, cells_x, cells_y, dx, dy)
                 d2 = (dx * dx + dy * dy) * resolution * resolution
                 total *= np.exp(-0.5 * (d2 / (sigma_xy * sigma_xy) + prior_th))
                 if total > best:
@@ -122,18 +135,6 @@ def max_pool(field, block):
 
 
 @njit
-def _score(field, cells_x, cells_y, dx, dy):
-    size_y, size_x = field.shape
-    total = 0.0
-    for b in range(cells_x.shape[0]):
-        xx = cells_x[b] + dx
-        yy = cells_y[b] + dy
-        if 0 <= xx < size_x and 0 <= yy < size_y:
-            total += field[yy, xx]
-    return total
-
-
-@njit
 def bounded_search(field, pooled, block, resolution, window_x, window_y, px, py, pth, points,
                    angular_half, angular_step, linear_cells):
     """The best pose ``(x, y, th, score)`` of an exhaustive search without prior, found by
@@ -150,14 +151,8 @@ def bounded_search(field, pooled, block, resolution, window_x, window_y, px, py,
     cells_y = np.empty((rotations, n_pts), np.int64)
     inv = 1.0 / resolution
     for r in range(rotations):
-        th = pth + (r - n_rot) * angular_step
-        c = np.cos(th)
-        s = np.sin(th)
-        for b in range(n_pts):
-            ex = px + c * points[b, 0] - s * points[b, 1]
-            ey = py + s * points[b, 0] + c * points[b, 1]
-            cells_x[r, b] = int(np.floor((ex - window_x) * inv))
-            cells_y[r, b] = int(np.floor((ey - window_y) * inv))
+        _cells(px, py, pth + (r - n_rot) * angular_step, points, window_x, window_y, inv, cells_x[r],
+               cells_y[r])
     width = 2 * linear_cells + 1
     blocks = (width + block - 1) // block
     bounds = np.empty(rotations * blocks * blocks)
