@@ -215,7 +215,8 @@ class RBPFSlam:
 
         The leading particle is matched finely from its prediction turned to a few
         headings, and keeps the likeliest; when too few beams match after a large
-        reported turn, headings that take that turn back are tried too. When still
+        reported motion, starts that take part of it back are tried too
+        (:meth:`_take_back`). When still
         too few beams match, a coarse correlative search, whose window widens with
         the odometry's rotation (its worst errors come with fast turns), gives a
         second start; its fine match wins if it is likelier and fits well. The
