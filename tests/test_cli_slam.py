@@ -58,7 +58,7 @@ def test_without_loop_closure_the_result_is_the_best_particles_own(mit_slice, tm
 
 
 def test_the_whole_mit_csail_log_closes_its_loops():
-    # measured over seeds 0-9: 0.030-0.033 m and 0.37-0.40 deg (the best particle alone:
+    # measured over seeds 0-9: 0.028-0.031 m and 0.34-0.36 deg (the best particle alone:
     # 0.033-0.18 m); Cartographer reports 0.0319 m / 0.37 deg
     log, relations = BUNDLED["mit-csail"]
     run = slam_from_log(log, RBPFConfig(), seed=0)

@@ -23,7 +23,9 @@ class LoopClosureConfig:
     optimising, exceeds this (in ``e^T Omega e``) are dropped; ``rounds``:
     searches, each from the poses the previous one optimised; ``refine_fit``:
     the fraction of beams that must fit for a scan to take its pose matched
-    against its submap.
+    against its submap; ``refine_beams``: how many of a scan's beams (evenly
+    spread) that final match uses, more than the filter's ``max_beams``, since it
+    runs once per scan.
     """
 
     enabled: bool = True
@@ -43,3 +45,4 @@ class LoopClosureConfig:
     outlier_chi2: float = 16.0
     rounds: int = 2
     refine_fit: float = 0.6
+    refine_beams: int = 720

@@ -235,7 +235,7 @@ def scan_poses(submaps: Submaps, update_poses: np.ndarray, update_of_scan: np.nd
         fine = sub.fine()
         anchor = update_poses[sub.anchor]
         for k in ks:
-            beams = beam_rows(scans[k], reach, matcher.max_beams)
+            beams = beam_rows(scans[k], reach, config.refine_beams)
             if len(beams) == 0:
                 continue
             start = sub.in_frame(anchor, out[k])
