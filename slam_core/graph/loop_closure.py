@@ -53,6 +53,8 @@ BLOCK_CELLS = 4
 
 @dataclass
 class LoopClosureResult:
+    """The optimised poses of the updates and what the search did."""
+
     poses: np.ndarray
     loop_edges: int = 0
     rejected_edges: int = 0
@@ -64,12 +66,12 @@ class LoopClosureResult:
 
 
 class Submap:
-    """Scans of consecutive updates rendered at their poses into one small map,
-    with the likelihood field of the correlative search over its whole extent."""
+    """Scans of consecutive updates rendered at their poses into one small map, with the
+    likelihood field of the correlative search as far around its anchor as the endpoints
+    of a query near the anchor can land."""
 
     def __init__(self, updates: np.ndarray, poses: np.ndarray, scans: list[Scan], resolution: float,
                  model: SensorModel, matcher: MatcherParams, params: np.ndarray, reach: float):
-        self.updates = updates
         self.anchor = int(updates[len(updates) // 2])
         self.anchor_pose = poses[self.anchor].copy()
         self.maps = TiledMaps(1, resolution, model, capacity=512)
