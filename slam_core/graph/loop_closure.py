@@ -210,6 +210,14 @@ def close_loops(poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig 
     return result, submaps
 
 
+def per_scan_poses(update_of_scan: np.ndarray, scan_odometry: np.ndarray,
+                   update_odometry: np.ndarray, update_poses: np.ndarray) -> np.ndarray:
+    """A pose for every scan: the pose of its last filter update moved by the odometry since."""
+    base_pose = update_poses[update_of_scan]
+    base_odom = update_odometry[update_of_scan]
+    return compose(base_pose, relative(base_odom, scan_odometry))
+
+
 def scan_poses(submaps: Submaps, update_poses: np.ndarray, update_of_scan: np.ndarray,
                scan_odometry: np.ndarray, update_odometry: np.ndarray, scans: list[Scan],
                config: LoopClosureConfig | None = None, matcher: MatcherParams | None = None,
@@ -225,7 +233,7 @@ def scan_poses(submaps: Submaps, update_poses: np.ndarray, update_of_scan: np.nd
     model = model or SensorModel()
     params = matcher.packed()
     reach = min(matcher.max_range, model.usable_range)
-    out = compose(update_poses[update_of_scan], relative(update_odometry[update_of_scan], scan_odometry))
+    out = per_scan_poses(update_of_scan, scan_odometry, update_odometry, update_poses)
     if not config.enabled:
         return out
     by_submap: dict[int, list[int]] = {}

@@ -7,8 +7,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from slam_core.geometry import compose, relative
-from slam_core.graph.loop_closure import LoopClosureResult, close_loops, scan_poses
+from slam_core.graph.loop_closure import LoopClosureResult, close_loops, per_scan_poses, scan_poses
 from slam_core.io.carmen import TruncatedLogError, laser_records
 from slam_core.io.trajectory import Trajectory
 from slam_core.occupancy_grid import OccupancyGrid
@@ -32,14 +31,6 @@ class SlamRun:
     log_duration: float
     loop_closure: LoopClosureResult | None = None
     warnings: list[str] = field(default_factory=list)
-
-
-def per_scan_poses(update_of_scan: np.ndarray, scan_odometry: np.ndarray,
-                   update_odometry: np.ndarray, update_poses: np.ndarray) -> np.ndarray:
-    """A pose for every scan: the pose of its last filter update moved by the odometry since."""
-    base_pose = update_poses[update_of_scan]
-    base_odom = update_odometry[update_of_scan]
-    return compose(base_pose, relative(base_odom, scan_odometry))
 
 
 def slam_from_log(log_path, config: RBPFConfig | None = None, seed: int = 0,
@@ -77,6 +68,7 @@ def slam_from_log(log_path, config: RBPFConfig | None = None, seed: int = 0,
     update_poses = np.empty((slam.stats.updates, 3))
     update_poses[updates] = poses
     update_of_scan = np.array(update_of_scan)
+    is_update = np.array(is_update)
     odometry = np.array(odometry)
     update_odometry = np.array(slam.update_odometry)
     particle = Trajectory(stamps, per_scan_poses(update_of_scan, odometry, update_odometry, update_poses))
@@ -94,7 +86,7 @@ def slam_from_log(log_path, config: RBPFConfig | None = None, seed: int = 0,
                        config.matcher, config.sensor)
     del submaps
     grid = OccupancyGrid(config.resolution, model=config.sensor)
-    for pose, scan in zip(final[np.array(is_update)], update_scans, strict=True):
+    for pose, scan in zip(final[is_update], update_scans, strict=True):
         grid.integrate(scan, pose)
     wall = time.perf_counter() - started
     return SlamRun(*filtered, particle, Trajectory(stamps, final), grid, wall, filter_time, duration,

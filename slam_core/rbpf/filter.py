@@ -229,8 +229,9 @@ class RBPFSlam:
         res = maps.resolution
         fine = (maps.tables[lead], maps.lo, maps.hits, maps.origin[0], maps.origin[1], res)
         step = m.lead_rotation_step
-        best, best_ll, matched = self._best_heading(fine, pred, beams, step * np.arange(
-            -m.lead_rotations, m.lead_rotations + 1))
+        headings = np.tile(pred, (2 * m.lead_rotations + 1, 1))
+        headings[:, 2] += step * np.arange(-m.lead_rotations, m.lead_rotations + 1)
+        best, best_ll, matched = self._likeliest(fine, headings, beams, pred)
         reported = relative(self.poses[lead], pred)
         if matched < m.good_match * len(beams):
             best, best_ll, matched = self._take_back(fine, lead, reported, beams, best, best_ll, matched)
@@ -272,25 +273,21 @@ class RBPFSlam:
             return best, best_ll, matched
         steps = max(turn_steps, int(np.ceil(travel / TAKE_BACK_STEP)))
         self.stats.take_back_searches += 1
-        for k in range(1, steps + 1):
-            start = compose(self.poses[lead], reported * (1.0 - k / steps))
+        scales = 1.0 - np.arange(1, steps + 1) / steps
+        starts = compose(self.poses[lead], reported[None, :] * scales[:, None])
+        return self._likeliest(fine, starts, beams, best, best_ll, matched, m.good_match * len(beams))
+
+    def _likeliest(self, fine: tuple, starts: np.ndarray, beams: np.ndarray, best: np.ndarray,
+                   best_ll: float = -np.inf, matched: int = 0,
+                   min_matched: float = 0.0) -> tuple[np.ndarray, float, int]:
+        """The likeliest fine match ``(pose, ll, matched)`` from the ``starts`` among those
+        matching at least ``min_matched`` beams, or the given best if none is likelier."""
+        m = self.config.matcher
+        for start in starts:
             x, y, th, _, n = match(*fine, start[0], start[1], start[2], beams, self._params,
                                    m.iterations, m.wide_iterations)
             ll, _ = pose_likelihood(*fine, x, y, th, beams, self._params)
-            if ll > best_ll and n >= m.good_match * len(beams):
-                best, best_ll, matched = np.array([x, y, th]), ll, n
-        return best, best_ll, matched
-
-    def _best_heading(self, fine: tuple, pred: np.ndarray, beams: np.ndarray,
-                      offsets: np.ndarray) -> tuple[np.ndarray, float, int]:
-        """The likeliest fine match from ``pred`` turned by each offset: ``(pose, ll, matched)``."""
-        m = self.config.matcher
-        best, best_ll, matched = pred, -np.inf, 0
-        for offset in offsets:
-            x, y, th, _, n = match(*fine, pred[0], pred[1], pred[2] + offset, beams, self._params,
-                                   m.iterations, m.wide_iterations)
-            ll, _ = pose_likelihood(*fine, x, y, th, beams, self._params)
-            if ll > best_ll:
+            if ll > best_ll and n >= min_matched:
                 best, best_ll, matched = np.array([x, y, th]), ll, n
         return best, best_ll, matched
 
