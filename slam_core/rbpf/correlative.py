@@ -69,6 +69,26 @@ def _score(field, cells_x, cells_y, dx, dy):
 
 
 @njit
+def _bound(pooled, block, cells_x, cells_y, dx, dy):
+    """An upper bound of ``_score`` over the offsets ``dx .. dx + block - 1`` (and the same in y):
+    the sum of ``pooled = max_pool(field, block)``. A block that starts before the field's
+    first row or column is bounded by the pooled cell at the edge, which covers its part
+    inside the field."""
+    size_y, size_x = pooled.shape
+    total = 0.0
+    for b in range(cells_x.shape[0]):
+        xx = cells_x[b] + dx
+        yy = cells_y[b] + dy
+        if -block < xx < 0:
+            xx = 0
+        if -block < yy < 0:
+            yy = 0
+        if 0 <= xx < size_x and 0 <= yy < size_y:
+            total += pooled[yy, xx]
+    return total
+
+
+@njit
 def _cells(px, py, th, points, window_x, window_y, inv, cells_x, cells_y):
     """The field cells of ``points`` (robot frame) seen from ``(px, py, th)``."""
     c = np.cos(th)
@@ -159,8 +179,9 @@ def bounded_search(field, pooled, block, resolution, window_x, window_y, px, py,
     for r in range(rotations):
         for by in range(blocks):
             for bx in range(blocks):
-                bounds[(r * blocks + by) * blocks + bx] = _score(
-                    pooled, cells_x[r], cells_y[r], bx * block - linear_cells, by * block - linear_cells)
+                bounds[(r * blocks + by) * blocks + bx] = _bound(
+                    pooled, block, cells_x[r], cells_y[r], bx * block - linear_cells,
+                    by * block - linear_cells)
     order = np.argsort(-bounds)
     best = -1.0
     bx_best, by_best, r_best = 0, 0, n_rot
