@@ -8,18 +8,29 @@ from app.core.config import Settings
 from slam_core.control.pure_pursuit import PurePursuit, PursuitConfig
 from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.planning import planner
-from slam_core.planning.costmap import build_costmap
+from slam_core.planning.costmap import CostmapConfig, build_costmap
 from slam_core.planning.errors import PlanningError
 
 __all__ = ["PlanningError", "follower_for", "plan_path"]
 
 
-def plan_path(grid: OccupancyGrid, pose: np.ndarray, goal) -> np.ndarray:
-    """Waypoints ``(n, 2)`` from the pose to the goal; raises ``PlanningError`` with a ``reason``."""
-    path = planner.plan_path(build_costmap(grid), np.asarray(pose, float)[:2], np.asarray(goal, float))
+#: Unknown cells are forbidden unless the goal explores; then they cost the planner's default extra.
+KNOWN_ONLY = CostmapConfig(unknown_cost=None)
+EXPLORING = CostmapConfig()
+
+
+def plan_path(grid: OccupancyGrid, pose: np.ndarray, goal, explore: bool = False) -> np.ndarray:
+    """Waypoints ``(n, 2)`` from the pose to the goal; raises ``PlanningError`` with a ``reason``.
+
+    Without ``explore`` a goal in unknown space fails with ``goal_in_unknown`` and the path stays
+    in mapped free space.
+    """
+    costmap = build_costmap(grid, EXPLORING if explore else KNOWN_ONLY)
+    path = planner.plan_path(costmap, np.asarray(pose, float)[:2], np.asarray(goal, float))
     return np.asarray(path.waypoints, float)
 
 
 def follower_for(waypoints: np.ndarray, settings: Settings) -> PurePursuit:
     """The simulator branch's pure-pursuit controller, within the server's speed limits."""
-    return PurePursuit(waypoints, PursuitConfig(v_max=settings.max_speed, w_max=settings.max_turn_rate))
+    return PurePursuit(waypoints, PursuitConfig(v_max=settings.max_speed, w_max=settings.max_turn_rate,
+                                                goal_tolerance=settings.goal_tolerance))
