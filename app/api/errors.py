@@ -16,7 +16,7 @@ from starlette.routing import Match, Mount
 
 #: The reason an error gets when the code raising it did not name one.
 DEFAULT_REASONS = {
-    400: "bad_request", 401: "unauthorized", 403: "forbidden", 404: "not_found",
+    400: "body_not_json", 401: "unauthorized", 403: "forbidden", 404: "not_found",
     405: "method_not_allowed", 409: "conflict", 413: "body_too_large", 415: "unsupported_media_type",
     422: "invalid_request", 429: "too_many_requests", 500: "internal_error", 503: "unavailable",
 }
@@ -49,9 +49,9 @@ def _described(*codes: int) -> dict:
 
 
 #: Errors any token-protected route may answer.
-ERROR_RESPONSES = _described(401, 404, 405, 409, 413, 415, 422, 429, 503)
+ERROR_RESPONSES = _described(400, 401, 404, 405, 409, 413, 415, 422, 429, 503)
 #: Errors of the open routes (no token).
-OPEN_ERROR_RESPONSES = _described(404, 405, 413, 415, 422, 429, 503)
+OPEN_ERROR_RESPONSES = _described(400, 404, 405, 413, 415, 422, 429, 503)
 
 
 def validation_detail(exc: RequestValidationError) -> str:

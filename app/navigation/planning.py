@@ -14,9 +14,12 @@ from slam_core.planning.errors import PlanningError
 __all__ = ["PlanningError", "follower_for", "plan_path"]
 
 
+#: A cell the robot has seen to be more likely free than not is mapped free space (the dashboard
+#: draws it lighter than unknown grey); one never seen, or seen more occupied than free, is unknown.
+MAPPED_FREE_BELOW = 0.5
 #: Unknown cells are forbidden unless the goal explores; then they cost the planner's default extra.
-KNOWN_ONLY = CostmapConfig(unknown_cost=None)
-EXPLORING = CostmapConfig()
+KNOWN_ONLY = CostmapConfig(unknown_cost=None, free_thresh=MAPPED_FREE_BELOW)
+EXPLORING = CostmapConfig(free_thresh=MAPPED_FREE_BELOW)
 
 
 def plan_path(grid: OccupancyGrid, pose: np.ndarray, goal, explore: bool = False) -> np.ndarray:

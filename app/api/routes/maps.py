@@ -5,6 +5,7 @@ from typing import Annotated
 
 from fastapi import APIRouter, Path, Response, status
 
+from app.api import path_names  # noqa: F401  (registers {name:name})
 from app.api.deps import RuntimeDep, SettingsDep, StoreDep
 from app.api.errors import ApiError
 from app.api.models import MapBody, MapName, SavedMap, Status
@@ -45,7 +46,7 @@ async def create_map(body: MapBody, runtime: RuntimeDep, store: StoreDep, settin
         raise ApiError(status.HTTP_409_CONFLICT, "name_taken", str(exc)) from None
 
 
-@router.post("/{name}/load", response_model=Status,
+@router.post("/{name:name}/load", response_model=Status,
              responses={202: {"model": Status, "description": "the worker is still switching"}})
 async def create_map_load(runtime: RuntimeDep, store: StoreDep, response: Response,
                           name: MapNameParam) -> dict:
@@ -54,14 +55,14 @@ async def create_map_load(runtime: RuntimeDep, store: StoreDep, response: Respon
     return await switch_mode(runtime, response, "localization", str(yaml_path), name)
 
 
-@router.get("/{name}.png", response_class=Response, responses={200: {"content": {"image/png": {}}}})
+@router.get("/{name:name}.png", response_class=Response, responses={200: {"content": {"image/png": {}}}})
 async def read_map_png(runtime: RuntimeDep, store: StoreDep, name: MapNameParam) -> Response:
     """A saved map as a PNG picture."""
     grid = await load_saved_map(runtime, map_record(store, name).name)
     return Response(await asyncio.to_thread(png_bytes, grid), media_type="image/png")
 
 
-@router.delete("/{name}", status_code=status.HTTP_204_NO_CONTENT, response_class=Response)
+@router.delete("/{name:name}", status_code=status.HTTP_204_NO_CONTENT, response_class=Response)
 def delete_map(store: StoreDep, settings: SettingsDep, name: MapNameParam) -> Response:
     """Delete a saved map and its files."""
     record = map_record(store, name)

@@ -4,6 +4,7 @@ from typing import Annotated
 
 from fastapi import APIRouter, Path, Response, status
 
+from app.api import path_names  # noqa: F401  (registers {name:name})
 from app.api.bounds import require_in_map
 from app.api.deps import RuntimeDep, StoreDep
 from app.api.errors import ApiError
@@ -40,13 +41,13 @@ def create_place(body: PlaceBody, store: StoreDep, runtime: RuntimeDep) -> dict:
         raise ApiError(status.HTTP_409_CONFLICT, "name_taken", str(exc)) from None
 
 
-@router.get("/{name}", response_model=Place)
+@router.get("/{name:name}", response_model=Place)
 def read_place(store: StoreDep, name: PlaceNameParam) -> dict:
     """One place."""
     return _get(store, name).dict()
 
 
-@router.patch("/{name}", response_model=Place)
+@router.patch("/{name:name}", response_model=Place)
 def update_place(body: PlacePatch, store: StoreDep, runtime: RuntimeDep, name: PlaceNameParam) -> dict:
     """Rename or move a place (a moved place must lie near the map)."""
     old = _get(store, name)
@@ -64,7 +65,7 @@ def update_place(body: PlacePatch, store: StoreDep, runtime: RuntimeDep, name: P
         raise ApiError(status.HTTP_404_NOT_FOUND, "not_found", str(exc.args[0])) from None
 
 
-@router.delete("/{name}", status_code=status.HTTP_204_NO_CONTENT, response_class=Response)
+@router.delete("/{name:name}", status_code=status.HTTP_204_NO_CONTENT, response_class=Response)
 def delete_place(store: StoreDep, name: PlaceNameParam) -> Response:
     """Forget a place."""
     try:
@@ -74,7 +75,7 @@ def delete_place(store: StoreDep, name: PlaceNameParam) -> Response:
     return Response(status_code=status.HTTP_204_NO_CONTENT)
 
 
-@router.post("/{name}/go", response_model=GoalResponse, status_code=status.HTTP_202_ACCEPTED)
+@router.post("/{name:name}/go", response_model=GoalResponse, status_code=status.HTTP_202_ACCEPTED)
 async def create_place_goal(runtime: RuntimeDep, store: StoreDep, name: PlaceNameParam) -> dict:
     """Drive to the place and turn to its heading."""
     place = _get(store, name)
