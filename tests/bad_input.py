@@ -1,8 +1,11 @@
-"""The bad-input corpus: requests, hostile names and broken map files, each with the answer
-homebot must give. ``tests/test_api_edge.py`` runs it against a live server."""
+"""The bad-input corpus: requests, hostile names, broken map files and broken logs, each with the
+answer homebot must give. ``tests/test_api_edge.py`` runs it against a live server and
+``tests/test_cli_bad_input.py`` against the CLI."""
 
 from __future__ import annotations
 
+import bz2
+import gzip
 from pathlib import Path
 
 GOOD_YAML = "image: {image}\nresolution: 0.05\norigin: [0.0, 0.0, 0.0]\nnegate: 0\n" \
@@ -57,7 +60,7 @@ BAD_MAPS = {
     "nan_threshold": (GOOD_YAML.replace("0.65", ".nan"), GOOD_PGM, "occupied_thresh must be finite"),
     "swapped_thresholds": (GOOD_YAML.replace("0.65", "0.1"), GOOD_PGM, "free_thresh < occupied_thresh"),
     "bomb": (GOOD_YAML, b"P5\n200000 200000\n255\n" + bytes(64), "too large"),
-    "oversized": (GOOD_YAML, b"P5\n3000 3000\n255\n" + bytes(64), "too large"),
+    "oversized": (GOOD_YAML, b"P5\n5000 5000\n255\n" + bytes(64), "too large"),
     "truncated_image": (GOOD_YAML, b"P5\n100 100\n255\n" + bytes(10), "cannot read map image"),
     "not_an_image": (GOOD_YAML, b"hello, I am not a picture", "cannot read map image"),
     "binary_yaml": ("\x00\x01\x02\xff", GOOD_PGM, "cannot read map YAML"),
@@ -73,3 +76,34 @@ def write_bad_map(directory: Path, name: str, case: str) -> str:
     (directory / f"{name}.yaml").write_bytes(text.format(image=f"{name}.pgm").encode("latin-1"))
     (directory / f"{name}.pgm").write_bytes(image)
     return problem
+
+
+GOOD_LOG_LINES = (
+    "ODOM 0.0 0.0 0.0 0 0 0 0.0 robot 0.0\n"
+    "FLASER 3 1.0 1.0 1.0 0.0 0.0 0.0 0.0 0.0 0.0 0.1 robot 0.1\n"
+)
+
+#: case -> (file name, file bytes (None: a directory), words the error must contain)
+BAD_LOGS = {
+    "binary": ("binary.clf", bytes(range(256)) * 8, "binary.clf:1"),
+    "empty": ("empty.clf", b"", "empty.clf"),
+    "truncated_gz": ("cut.clf.gz", gzip.compress(GOOD_LOG_LINES.encode() * 50)[:40], "cut.clf.gz"),
+    "truncated_bz2": ("cut.clf.bz2", bz2.compress(GOOD_LOG_LINES.encode() * 50)[:40], "cut.clf.bz2"),
+    "garbage_line": ("garbage.clf", b"FLASER -5 1 2\n", "garbage.clf:1"),
+    "nan_pose": ("nan.clf", GOOD_LOG_LINES.replace("0.0 0.0 0.0 0.0 0.0 0.0", "nan 0.0 0.0 nan 0.0 0.0")
+                 .encode(), "nan.clf:2"),
+    "huge_pose": ("huge.clf", GOOD_LOG_LINES.replace("0.0 0.0 0.0 0.0 0.0 0.0", "1e300 0.0 0.0 1e300 0.0 0.0")
+                  .encode(), "huge.clf:2"),
+    "directory": ("a_directory", None, "a_directory"),
+}
+
+
+def write_bad_log(directory: Path, case: str) -> tuple[Path, str]:
+    """Write one broken log; returns its path and what its error must say."""
+    name, data, expected = BAD_LOGS[case]
+    path = directory / name
+    if data is None:
+        path.mkdir()
+    else:
+        path.write_bytes(data)
+    return path, expected
