@@ -57,7 +57,9 @@ class Settings(BaseSettings):
 
     control_hz: float = Field(10.0, ge=1.0, le=100.0)
     replan_s: float = Field(2.0, gt=0.0)
-    goal_tolerance: float = Field(0.08, gt=0.0, le=1.0)
+    goal_tolerance: float = Field(0.05, gt=0.0, le=1.0)
+    #: A robot whose path left does not shrink for this long (s) backs off and replans.
+    stuck_after_s: float = Field(8.0, gt=0.0)
     max_speed: float = Field(0.4, gt=0.0)
     max_turn_rate: float = Field(1.2, gt=0.0)
     teleop_hold_s: float = Field(0.5, gt=0.0)

@@ -18,6 +18,7 @@ import numpy as np
 
 from app.core.config import Settings
 from app.navigation.planning import PlanningError, follower_for, plan_path
+from app.navigation.progress import ProgressWatch, remaining_length
 from slam_core.occupancy_grid import OccupancyGrid
 
 log = logging.getLogger(__name__)
@@ -44,6 +45,11 @@ HEADING_TOLERANCE = math.radians(2.0)
 #: Turn rate per radian of heading error, and the slowest turn that still moves the wheels (rad/s).
 HEADING_GAIN = 1.5
 MIN_TURN_RATE = 0.15
+#: A robot that makes no progress backs off this long at this speed (m/s), then replans; after
+#: ``MAX_RECOVERIES`` such tries it stops and reports ``stuck``.
+BACKOFF_S = 1.5
+BACKOFF_SPEED = 0.1
+MAX_RECOVERIES = 2
 
 
 def heading_command(yaw: float, goal_yaw: float | None, max_rate: float) -> float:
@@ -58,7 +64,11 @@ def heading_command(yaw: float, goal_yaw: float | None, max_rate: float) -> floa
 
 
 class Navigator:
-    """Goal, path and state (``idle``, ``driving``, ``arrived``, ``failed``) of the robot.
+    """Goal, path and state (``idle``, ``driving``, ``arrived``, ``failed``, ``stuck``) of the robot.
+
+    A goal ends ``arrived`` within ``goal_tolerance`` and facing its ``yaw`` (if it has one). A
+    robot whose path left stops shrinking for ``stuck_after_s`` backs off and replans; after
+    ``MAX_RECOVERIES`` of those it stops with state ``stuck``.
 
     Given ``tour`` waypoints, an idle robot drives to them in turn until a person takes over
     (a goal, teleop or a cancel from the API).
@@ -84,6 +94,9 @@ class Navigator:
         self._generation = 0
         self._tour = None if tour is None or len(tour) == 0 else np.asarray(tour, float)
         self._tour_next = 0
+        self._watch = ProgressWatch(settings.stuck_after_s)
+        self._recoveries = 0
+        self._backing_until = 0.0
 
     def snapshot(self) -> dict:
         return {"goal": self.goal.dict() if self.goal else None,
@@ -121,6 +134,8 @@ class Navigator:
         self.goal, self.path, self.state, self.reason = goal, path, "driving", None
         self._follower = follower_for(path, self.settings)
         self._last_plan = time.monotonic()
+        self._watch.restart(self._last_plan)
+        self._recoveries, self._backing_until = 0, 0.0
         return {"goal": goal.dict(), "path": np.round(path, 3).tolist(), "length": self.path_length()}
 
     def cancel(self, state: str = "idle", reason: str | None = None) -> None:
@@ -175,11 +190,30 @@ class Navigator:
             if turn == 0.0:
                 self.state, self._follower = "arrived", None
             return
+        if now < self._backing_until:
+            self._send(-BACKOFF_SPEED, 0.0)
+            return
+        if self._watch.stalled(now, remaining_length(self._follower, pose)):
+            self._recover(now)
+            return
         if now - self._last_plan >= self.settings.replan_s and not self._replanning:
             self._last_plan = now
             self._replan_task = asyncio.create_task(self._replan(self._generation))
         v, w = self._follower.command(np.asarray(pose, float))
         self._send(v, w)
+
+    def _recover(self, now: float) -> None:
+        """No progress: back off and replan, or give up with ``stuck`` after ``MAX_RECOVERIES``."""
+        if self._recoveries >= MAX_RECOVERIES:
+            log.info("stuck on the way to %s", self.goal)
+            self.cancel("stuck", f"no progress for {self.settings.stuck_after_s:g} s after "
+                                 f"{self._recoveries} back-offs and replans")
+            return
+        self._recoveries += 1
+        self._backing_until = now + BACKOFF_S
+        self._watch.restart(self._backing_until)
+        self._last_plan = -math.inf  # replan as soon as the back-off ends
+        self._send(-BACKOFF_SPEED, 0.0)
 
     async def _next_tour_stop(self) -> None:
         """Head for the tour's next waypoint; one that cannot be planned yet is skipped."""

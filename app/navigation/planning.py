@@ -30,7 +30,10 @@ def plan_path(grid: OccupancyGrid, pose: np.ndarray, goal, explore: bool = False
     """
     costmap = build_costmap(grid, EXPLORING if explore else KNOWN_ONLY)
     path = planner.plan_path(costmap, np.asarray(pose, float)[:2], np.asarray(goal, float))
-    return np.asarray(path.waypoints, float)
+    waypoints = np.asarray(path.waypoints, float)
+    if not path.snapped:  # the search ends at the goal cell's centre: end at the goal itself
+        waypoints[-1] = path.requested_goal
+    return waypoints
 
 
 def follower_for(waypoints: np.ndarray, settings: Settings) -> PurePursuit:
