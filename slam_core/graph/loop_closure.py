@@ -41,6 +41,7 @@ from slam_core.graph.pose_graph import PoseGraph, chain_edges, optimize
 from slam_core.occupancy_grid import SensorModel
 from slam_core.rbpf.config import MatcherParams
 from slam_core.rbpf.correlative import bounded_search, likelihood_window, max_pool
+from slam_core.rbpf.laser_mount import LaserMount
 from slam_core.rbpf.scan_matcher import P_OCCUPIED, beam_rows, match, pose_likelihood
 from slam_core.rbpf.tiled_map import TiledMaps
 from slam_core.scan import Scan
@@ -151,17 +152,19 @@ def _match(sub: Submap, start: np.ndarray, beams: np.ndarray, points: np.ndarray
 
 def close_loops(poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig | None = None,
                 matcher: MatcherParams | None = None, resolution: float = 0.05,
-                model: SensorModel | None = None) -> tuple[LoopClosureResult, Submaps]:
-    """Loop-closed poses for the filter's poses at its updates with their scans; also the
-    submaps (for :func:`scan_poses`)."""
+                model: SensorModel | None = None, laser_mount=None) -> tuple[LoopClosureResult, Submaps]:
+    """Loop-closed robot poses for the filter's robot poses at its updates with their scans
+    (taken by a laser at ``laser_mount`` in the robot frame); also the submaps (for
+    :func:`scan_poses`), which hold the laser's poses."""
     config = config or LoopClosureConfig()
     matcher = matcher or MatcherParams()
     model = model or SensorModel()
-    poses = np.asarray(poses, dtype=float)
+    mount = LaserMount.of(laser_mount)
+    result = LoopClosureResult(np.array(poses, dtype=float))
+    poses = mount.laser_poses(result.poses)
     params = matcher.packed()
     submaps = Submaps(poses, scans, config, resolution, model, matcher, params)
     n = len(poses)
-    result = LoopClosureResult(poses.copy())
     if not config.enabled or n < 2:
         return result, submaps
     path = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(poses[:, :2], axis=0).T))])
@@ -205,7 +208,7 @@ def close_loops(poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig 
                 del edges[keys[k - (n - 1)]]
             result.rejected_edges += len(bad)
             estimate = optimize(_graph(poses, chain, submaps, edges))
-    result.poses = estimate
+    result.poses = mount.robot_poses(estimate)
     result.loop_edges = len(edges)
     return result, submaps
 
@@ -221,9 +224,10 @@ def per_scan_poses(update_of_scan: np.ndarray, scan_odometry: np.ndarray,
 def scan_poses(submaps: Submaps, update_poses: np.ndarray, update_of_scan: np.ndarray,
                scan_odometry: np.ndarray, update_odometry: np.ndarray, scans: list[Scan],
                config: LoopClosureConfig | None = None, matcher: MatcherParams | None = None,
-               model: SensorModel | None = None) -> np.ndarray:
-    """A pose for every scan: its update's optimised pose moved by the odometry since, then
-    matched finely against that update's submap where it fits well.
+               model: SensorModel | None = None, laser_mount=None) -> np.ndarray:
+    """A robot pose for every scan: its update's optimised pose moved by the odometry since,
+    then matched finely against that update's submap where it fits well (poses and
+    odometry are the robot's, the laser sits at ``laser_mount``).
 
     The filter's own poses are draws from its proposal, each a little off the likeliest
     pose; the match takes the likeliest pose given the submap's other scans, and gives
@@ -231,11 +235,14 @@ def scan_poses(submaps: Submaps, update_poses: np.ndarray, update_of_scan: np.nd
     config = config or LoopClosureConfig()
     matcher = matcher or MatcherParams()
     model = model or SensorModel()
+    mount = LaserMount.of(laser_mount)
     params = matcher.packed()
     reach = min(matcher.max_range, model.usable_range)
     out = per_scan_poses(update_of_scan, scan_odometry, update_odometry, update_poses)
     if not config.enabled:
         return out
+    out = mount.laser_poses(out)
+    update_poses = mount.laser_poses(update_poses)
     by_submap: dict[int, list[int]] = {}
     for k, u in enumerate(update_of_scan):
         by_submap.setdefault(submaps.of_update(int(u)), []).append(k)
@@ -256,7 +263,7 @@ def scan_poses(submaps: Submaps, update_poses: np.ndarray, update_of_scan: np.nd
 
     with ThreadPoolExecutor(os.cpu_count() or 1) as pool:
         list(pool.map(lambda item: refine(*item), sorted(by_submap.items())))
-    return out
+    return mount.robot_poses(out)
 
 
 def _chain_information(poses: np.ndarray, config: LoopClosureConfig) -> np.ndarray:
