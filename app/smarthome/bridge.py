@@ -107,7 +107,8 @@ class MqttBridge:
                 self._last_state, self._map_png, self._map_seq = None, None, None
 
     def _read_targets(self) -> tuple[list[str], list[str]]:
-        return [p.name for p in self.runtime.store.list_places()], []
+        places = [p.name for p in self.runtime.store.list_places()]
+        return places, [r["name"] for r in self.runtime.rooms.rooms()]
 
     async def _state_pump(self) -> None:
         while True:
@@ -188,7 +189,13 @@ class MqttBridge:
         if isinstance(command, cmd.GoToDock):
             x, y = await asyncio.to_thread(self._dock)
             return Goal(x, y, DOCK)
-        raise cmd.CommandError(f"no room named {command.name!r}")
+        rooms = self.runtime.rooms
+        try:
+            room = rooms.find(command.name)
+            x, y = await asyncio.to_thread(rooms.target, room)
+        except KeyError as exc:
+            raise cmd.CommandError(str(exc.args[0])) from None
+        return Goal(x, y, rooms.layout.name(room))
 
     def _dock(self) -> tuple[float, float]:
         """The place named ``dock``, else where the robot started its map."""

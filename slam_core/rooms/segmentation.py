@@ -37,6 +37,8 @@ class SegmentationConfig:
     max_door_half_width: float = 0.55
     min_margin: float = 0.2
     min_core_area: float = 0.5
+    #: Free space apart from every room and smaller than this (specks, a glimpse) is no room.
+    min_room_area: float = 1.0
     radius_step: float = 0.05
     #: Obstacles smaller than this (table legs, plant pots) do not shape rooms.
     max_clutter_area: float = 0.15
@@ -66,6 +68,8 @@ def segment_rooms(grid: OccupancyGrid, config: SegmentationConfig | None = None)
     while stack:
         region, box, radius = stack.pop()
         pieces = _split(region, box, clearance[box], radius, config, res)
+        if pieces is None and radius == 0.0 and region.sum() * res * res < config.min_room_area:
+            continue
         if pieces is None:
             count += 1
             seeds[box][region] = count
