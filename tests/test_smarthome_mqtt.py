@@ -157,6 +157,18 @@ def test_places_appear_in_the_go_to_select_and_drive_there(server, observer):
     assert _state(observer)["state"] in ("idle", "mapping")
 
 
+def test_the_robots_room_is_published_and_can_be_driven_to(server, observer):
+    room = observer.wait(lambda: _state(observer).get("room"), 30, "the robot's room in the state")
+    assert room == server.status()["room"]
+    select = "homeassistant/select/homebot/go_to/config"
+    observer.wait(lambda: f"room: {room}" in observer.configs().get(select, {}).get("options", []), 15,
+                  "the room in the go-to select")
+    answer = observer.command(f"{PREFIX}/command", json.dumps({"command": "go_to", "room": room.upper()}))
+    assert answer["ok"] is True and answer["goal"]["place"] == room, answer
+    observer.wait(lambda: _state(observer).get("nav_state") in ("arrived", "idle"), 60, "arrival in the room")
+    assert _state(observer)["room"] == room
+
+
 def test_vacuum_return_to_base_and_send_command(server, observer):
     answer = observer.command(f"{PREFIX}/vacuum/command", "return_to_base")
     assert answer["ok"] is True and answer["command"] == "dock", answer
