@@ -18,6 +18,7 @@ import numpy as np
 from app.core.config import Settings
 from app.db.rooms import RoomStore
 from app.db.store import Store
+from app.db.zones import ZoneStore
 from app.navigation.navigator import Navigator
 from app.robot.simulator import SimHandles, start_simulator, wait_ready
 from app.rooms.service import RoomService
@@ -25,6 +26,7 @@ from app.streaming import map_frames
 from app.streaming.hub import Hub
 from app.worker.shared_map import MapSnapshot
 from app.worker.supervisor import WorkerSupervisor
+from app.zones.service import ZoneService
 from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.sim.world import load_world
 
@@ -54,6 +56,8 @@ class Runtime:
         tour = load_world(settings.world).tour if settings.simulation and settings.sim_tour else None
         self.navigator = Navigator(settings, self.current_grid, self.current_pose, self.send_velocity, tour)
         self.rooms = RoomService(self.current_grid, RoomStore(settings.db_path))
+        self.zones = ZoneService(ZoneStore(settings.db_path))
+        self.navigator.restrictions = self.zones.restrictions
         self.sim: SimHandles | None = None
         self.supervisor: WorkerSupervisor | None = None
         self.latest: dict | None = None

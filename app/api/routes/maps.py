@@ -58,6 +58,7 @@ async def create_map(body: MapBody, runtime: RuntimeDep, store: StoreDep, settin
     except db.AlreadyExists as exc:
         raise HTTPException(status.HTTP_409_CONFLICT, str(exc)) from None
     await runtime.rooms.save_as(body.name)
+    await asyncio.to_thread(runtime.zones.save_as, body.name)
     return record
 
 
@@ -74,6 +75,7 @@ async def create_map_load(runtime: RuntimeDep, store: StoreDep, settings: Settin
                             f"saved map {record.name!r} is unreadable: {exc}") from None
     send_mode(runtime, "localization", str(yaml_path), record.name)
     await runtime.rooms.use_map(record.name)
+    await asyncio.to_thread(runtime.zones.use_map, record.name)
     return runtime.status()
 
 
