@@ -130,6 +130,10 @@ def test_go_to_point_drives_the_simulated_robot(server, observer):
     ("command", '{"command": "go_to", "x": 80.0, "y": -60.0}', "goal_outside_map"),
     ("command", '{"command": "set_mode", "mode": "dance"}', "not available"),
     ("command", b"\xff\xfe", "UTF-8"),
+    ("command", '{"command": "add_zone", "points": [[0, 0], [1, 1]]}', "3 to"),
+    ("command", '{"command": "add_wall", "points": [[0, 0], [1, "a"]]}', "finite number"),
+    ("command", '{"command": "delete_zone", "zone": 999}', "no zone or wall with id 999"),
+    ("command", '{"command": "delete_zone"}', "positive integer"),
     ("goto/set", "garage", "unknown go-to option"),
     ("mode/set", "", "non-empty"),
     ("vacuum/command", "clean_spot", "unsupported vacuum command"),
@@ -167,6 +171,23 @@ def test_the_robots_room_is_published_and_can_be_driven_to(server, observer):
     assert answer["ok"] is True and answer["goal"]["place"] == room, answer
     observer.wait(lambda: _state(observer).get("nav_state") in ("arrived", "idle"), 60, "arrival in the room")
     assert _state(observer)["room"] == room
+
+
+def test_zones_over_mqtt_refuse_goals_inside_them(server, observer):
+    added = observer.command(f"{PREFIX}/command", json.dumps(
+        {"command": "add_zone", "points": [[5.0, 3.0], [6.0, 3.0], [6.0, 4.5], [5.0, 4.5]], "id": "z"}))
+    assert added["ok"] is True and added["id"] == "z" and added["command"] == "add_zone", added
+    zone = added["zone"]
+    observer.wait(lambda: [z["id"] for z in observer.json(f"{PREFIX}/zones") or []] == [zone["id"]], 10,
+                  "the zone on the zones topic")
+    refused = observer.command(f"{PREFIX}/command", '{"command": "go_to", "x": 5.5, "y": 3.75}')
+    assert refused["ok"] is False and refused["reason"].startswith("goal_in_no_go_zone"), refused
+    with server.client() as http:
+        assert [z["id"] for z in http.get("/api/zones").json()] == [zone["id"]]
+    delete = {"command": "delete_zone", "zone": zone["id"]}
+    deleted = observer.command(f"{PREFIX}/command", json.dumps(delete))
+    assert deleted["ok"] is True
+    observer.wait(lambda: observer.json(f"{PREFIX}/zones") == [], 10, "no zones on the zones topic")
 
 
 def test_vacuum_return_to_base_and_send_command(server, observer):

@@ -27,6 +27,7 @@ from app.smarthome.link import MqttLink
 from app.smarthome.robot_state import DOCK, robot_state
 from app.smarthome.topics import Topics
 from app.worker.estimators import available_modes
+from app.zones.service import ZoneError
 from slam_core.io.render import map_image
 from slam_core.sim.world import load_world
 
@@ -55,6 +56,7 @@ class MqttBridge:
         self._map_seq: int | None = None
         self._map_png: bytes | None = None
         self._fresh_session = asyncio.Event()
+        self._zones: str | None = None
 
     async def start(self) -> None:
         self._loop = asyncio.get_running_loop()
@@ -104,11 +106,18 @@ class MqttBridge:
                                                         *targets).items():
                     self.link.publish(topic, json.dumps(payload), retain=True, qos=1)
             if fresh:
-                self._last_state, self._map_png, self._map_seq = None, None, None
+                self._last_state, self._map_png, self._map_seq, self._zones = None, None, None, None
+            await self.publish_zones()
 
     def _read_targets(self) -> tuple[list[str], list[str]]:
         places = [p.name for p in self.runtime.store.list_places()]
         return places, [r["name"] for r in self.runtime.rooms.rooms()]
+
+    async def publish_zones(self) -> None:
+        """The zones and walls, retained, when they changed."""
+        text = json.dumps([z.dict() for z in await asyncio.to_thread(self.runtime.zones.list)])
+        if text != self._zones and self.link.publish(self.topics.zones, text, retain=True, qos=1):
+            self._zones = text
 
     async def _state_pump(self) -> None:
         while True:
@@ -170,12 +179,27 @@ class MqttBridge:
                 raise cmd.CommandError("the worker is not accepting commands")
             runtime.mode = command.mode
             return {"mode": command.mode}
+        if isinstance(command, cmd.AddZone | cmd.DeleteZone):
+            return await self._edit_zones(command)
         goal = await self._goal(command)
         try:
             started = await nav.set_goal(goal)
         except PlanningError as exc:
             raise cmd.CommandError(f"{exc.reason}: {exc}") from None
         return {"goal": started["goal"], "length": round(started["length"], 3)}
+
+    async def _edit_zones(self, command: cmd.AddZone | cmd.DeleteZone) -> dict:
+        zones = self.runtime.zones
+        try:
+            if isinstance(command, cmd.AddZone):
+                answer = {"zone": (await asyncio.to_thread(zones.add, command.kind, command.points)).dict()}
+            else:
+                await asyncio.to_thread(zones.delete, command.id)
+                answer = {"deleted": command.id}
+        except ZoneError as exc:
+            raise cmd.CommandError(str(exc)) from None
+        await self.publish_zones()
+        return answer
 
     async def _goal(self, command: cmd.Command) -> Goal:
         if isinstance(command, cmd.GoToPoint):
@@ -209,8 +233,10 @@ class MqttBridge:
 
 
 def _command_name(command: cmd.Command) -> str:
+    if isinstance(command, cmd.AddZone):
+        return f"add_{command.kind}"
     return {cmd.GoToPlace: "go_to", cmd.GoToRoom: "go_to", cmd.GoToPoint: "go_to", cmd.GoToDock: "dock",
-            cmd.Stop: "stop", cmd.SetMode: "set_mode"}[type(command)]
+            cmd.Stop: "stop", cmd.SetMode: "set_mode", cmd.DeleteZone: "delete_zone"}[type(command)]
 
 
 def _png(grid) -> bytes:

@@ -5,6 +5,8 @@ On ``<prefix>/command`` (and the vacuum's ``send_command`` topic) a command is J
     {"command": "go_to", "place": "kitchen"}      {"command": "go_to", "room": "Room 2"}
     {"command": "go_to", "x": 1.5, "y": 2.0}      {"command": "stop"}
     {"command": "set_mode", "mode": "localization"}   {"command": "dock"}
+    {"command": "add_zone", "points": [[x, y], ...]}  {"command": "add_wall", "points": [[x, y], [x, y]]}
+    {"command": "delete_zone", "zone": 3}
 
 optionally with an ``"id"`` that the answer repeats; Home Assistant's ``vacuum.send_command``
 puts the fields in ``"params"``, which is accepted too, and a bare word (``stop``, ``dock``)
@@ -59,7 +61,19 @@ class SetMode:
     mode: str
 
 
-Command = GoToPlace | GoToRoom | GoToPoint | GoToDock | Stop | SetMode
+@dataclass(frozen=True)
+class AddZone:
+    kind: str  # "zone" or "wall"
+    points: list[list[float]]
+
+
+@dataclass(frozen=True)
+class DeleteZone:
+    id: int
+
+
+Command = GoToPlace | GoToRoom | GoToPoint | GoToDock | Stop | SetMode | AddZone | DeleteZone
+COMMANDS = "go_to, stop, dock, set_mode, add_zone, add_wall, delete_zone"
 
 
 @dataclass(frozen=True)
@@ -125,7 +139,7 @@ def _parse_json_command(text: str) -> Request:
 def _command(body: dict) -> Command:
     name = body.get("command")
     if not isinstance(name, str):
-        raise CommandError("missing \"command\" (one of go_to, stop, dock, set_mode)")
+        raise CommandError(f"missing \"command\" (one of {COMMANDS})")
     if name == "stop":
         return Stop()
     if name in ("dock", VACUUM_RETURN):
@@ -141,7 +155,14 @@ def _command(body: dict) -> Command:
         if given[0] == "room":
             return GoToRoom(_name(body["room"], "room"))
         return GoToPoint(_coordinate(body.get("x"), "x"), _coordinate(body.get("y"), "y"))
-    raise CommandError(f"unknown command {name[:40]!r} (have: go_to, stop, dock, set_mode)")
+    if name in ("add_zone", "add_wall"):
+        return AddZone(name.removeprefix("add_"), _points(body.get("points")))
+    if name == "delete_zone":
+        zone_id = body.get("zone")
+        if isinstance(zone_id, bool) or not isinstance(zone_id, int) or zone_id < 1:
+            raise CommandError("delete_zone needs \"zone\": the zone's id (a positive integer)")
+        return DeleteZone(zone_id)
+    raise CommandError(f"unknown command {name[:40]!r} (have: {COMMANDS})")
 
 
 def _parse_goto_option(text: str) -> Command:
@@ -166,3 +187,14 @@ def _coordinate(value, what: str) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
         raise CommandError(f"{what} must be a finite number of metres")
     return float(value)
+
+
+def _points(value) -> list[list[float]]:
+    if not isinstance(value, list) or not 2 <= len(value) <= 64:
+        raise CommandError("\"points\" must be a list of 2 to 64 [x, y] pairs")
+    out = []
+    for point in value:
+        if not isinstance(point, list) or len(point) != 2:
+            raise CommandError("each point is an [x, y] pair")
+        out.append([_coordinate(point[0], "x"), _coordinate(point[1], "y")])
+    return out

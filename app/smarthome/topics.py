@@ -37,6 +37,11 @@ class Topics:
         return f"{self.prefix}/map/image"
 
     @property
+    def zones(self) -> str:
+        """JSON list of the map's no-go zones and virtual walls ``{"id", "kind", "points"}`` (retained)."""
+        return f"{self.prefix}/zones"
+
+    @property
     def command(self) -> str:
         """JSON commands: ``{"command": "go_to" | "stop" | "set_mode" | "dock", ...}``."""
         return f"{self.prefix}/command"
