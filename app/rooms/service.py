@@ -93,15 +93,20 @@ class RoomService:
         return self.layout.find(name)
 
     def target(self, room: int) -> tuple[float, float]:
-        """The point of ``room`` farthest from its borders: inside it, clear of walls and doorways."""
+        """Where to drive to reach ``room``; ``KeyError`` when there is no such room."""
         layout = self.layout
         if layout is None or room not in layout.ids():
             raise KeyError(f"no room with id {room}")
-        iy, ix = np.nonzero(layout.labels == room)
-        y0, y1, x0, x1 = iy.min(), iy.max() + 1, ix.min(), ix.max() + 1
-        inside = np.pad(layout.labels[y0:y1, x0:x1] == room, 1)
-        depth = distance_to_features(~inside)
-        cy, cx = np.unravel_index(int(np.argmax(depth)), depth.shape)
-        res = layout.resolution
-        return (float(layout.origin[0] + (x0 + cx - 1 + 0.5) * res),
-                float(layout.origin[1] + (y0 + cy - 1 + 0.5) * res))
+        return room_centre(layout, room)
+
+
+def room_centre(layout: RoomLayout, room: int) -> tuple[float, float]:
+    """The point of ``room`` farthest from its borders: inside it, clear of walls and doorways."""
+    iy, ix = np.nonzero(layout.labels == room)
+    y0, y1, x0, x1 = iy.min(), iy.max() + 1, ix.min(), ix.max() + 1
+    inside = np.pad(layout.labels[y0:y1, x0:x1] == room, 1)
+    depth = distance_to_features(~inside)
+    cy, cx = np.unravel_index(int(np.argmax(depth)), depth.shape)
+    res = layout.resolution
+    return (float(layout.origin[0] + (x0 + cx - 1 + 0.5) * res),
+            float(layout.origin[1] + (y0 + cy - 1 + 0.5) * res))

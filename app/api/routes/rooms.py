@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import asyncio
 from typing import Annotated
 
 from fastapi import APIRouter, HTTPException, Path, status
@@ -12,7 +13,8 @@ from app.api.models import GoalResponse
 from app.api.routes.navigation import start_goal
 from app.db.names import check_name
 from app.navigation.navigator import Goal
-from app.rooms.service import RoomService
+from app.rooms.overlay import overlay
+from app.rooms.service import RoomService, room_centre
 from slam_core.rooms.layout import RoomEditError
 
 router = APIRouter(prefix="/rooms", tags=["rooms"])
@@ -63,6 +65,17 @@ async def _edited(rooms: RoomService, change) -> list[dict]:
 def read_rooms(runtime: RuntimeDep) -> list[dict]:
     """The rooms found on the map (ids stay the same as the map grows)."""
     return runtime.rooms.rooms()
+
+
+@router.get("/overlay")
+async def read_overlay(runtime: RuntimeDep) -> dict:
+    """The rooms for drawing: ``{origin, resolution, width, height, image (PNG data URL), rooms}``."""
+    layout = runtime.rooms.layout
+
+    def build() -> dict:
+        return overlay(layout, {} if layout is None else {r: room_centre(layout, r) for r in layout.ids()})
+
+    return await asyncio.to_thread(build)
 
 
 @router.patch("/{room}", response_model=list[Room])
