@@ -133,6 +133,7 @@ class Status(BaseModel):
     mapping: bool
     pose: dict | None
     localized: bool
+    room: str | None = None
     worker: dict
     map: dict | None
     goal: dict | None

@@ -62,6 +62,18 @@ class Settings(BaseSettings):
     max_turn_rate: float = Field(1.2, gt=0.0)
     teleop_hold_s: float = Field(0.5, gt=0.0)
 
+    #: MQTT and Home Assistant discovery (``app/smarthome``): off unless ``mqtt_host`` is set.
+    mqtt_host: str | None = None
+    mqtt_port: int = Field(1883, ge=1, le=65535)
+    mqtt_tls: bool = False
+    mqtt_ca_file: Path | None = None
+    mqtt_username: str | None = None
+    mqtt_password: str | None = None
+    mqtt_prefix: str = Field("homebot", pattern=r"^[A-Za-z0-9_\-/]+$")
+    mqtt_client_id: str = Field("homebot", min_length=1, max_length=64)
+    mqtt_discovery_prefix: str = Field("homeassistant", pattern=r"^[A-Za-z0-9_\-/]+$")
+    mqtt_map_interval_s: float = Field(5.0, ge=1.0)
+
     @field_validator("cors_origins", mode="before")
     @classmethod
     def _split_origins(cls, value):

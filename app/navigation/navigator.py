@@ -19,6 +19,7 @@ import numpy as np
 from app.core.config import Settings
 from app.navigation.planning import PlanningError, follower_for, plan_path
 from slam_core.occupancy_grid import OccupancyGrid
+from slam_core.planning.zones import Restrictions
 
 log = logging.getLogger(__name__)
 
@@ -64,6 +65,8 @@ class Navigator:
         self._generation = 0
         self._tour = None if tour is None or len(tour) == 0 else np.asarray(tour, float)
         self._tour_next = 0
+        #: No-go zones and virtual walls every plan keeps out of (set by the runtime).
+        self.restrictions: Callable[[], Restrictions | None] = lambda: None
 
     def snapshot(self) -> dict:
         return {"goal": self.goal.dict() if self.goal else None,
@@ -78,7 +81,8 @@ class Navigator:
         grid, pose = self._grid(), self._pose()
         if grid is None or pose is None:
             raise PlanningError("the robot has no map or pose yet")
-        return await asyncio.to_thread(plan_path, grid, np.asarray(pose, float), (goal.x, goal.y))
+        return await asyncio.to_thread(plan_path, grid, np.asarray(pose, float), (goal.x, goal.y),
+                                       self.restrictions())
 
     @property
     def touring(self) -> bool:

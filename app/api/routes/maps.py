@@ -54,22 +54,28 @@ async def create_map(body: MapBody, runtime: RuntimeDep, store: StoreDep, settin
     await asyncio.to_thread(save_map, grid, stem)
     await asyncio.to_thread(save_png, grid, stem.with_suffix(".png"))
     try:
-        return store.add_map(body.name, grid.shape[1], grid.shape[0], grid.resolution).dict()
+        record = store.add_map(body.name, grid.shape[1], grid.shape[0], grid.resolution).dict()
     except db.AlreadyExists as exc:
         raise HTTPException(status.HTTP_409_CONFLICT, str(exc)) from None
+    await runtime.rooms.save_as(body.name)
+    await asyncio.to_thread(runtime.zones.save_as, body.name)
+    return record
 
 
 @router.post("/{name}/load", response_model=Status)
-def create_map_load(runtime: RuntimeDep, store: StoreDep, settings: SettingsDep, name: str = MapName) -> dict:
+async def create_map_load(runtime: RuntimeDep, store: StoreDep, settings: SettingsDep,
+                          name: str = MapName) -> dict:
     """Localize on the saved map (switches to localization mode)."""
     record = _record(store, name)
     yaml_path = settings.maps_dir / f"{record.name}.yaml"
     try:
-        load_map(yaml_path)
+        await asyncio.to_thread(load_map, yaml_path)
     except (OSError, ValueError) as exc:
         raise HTTPException(status.HTTP_409_CONFLICT,
                             f"saved map {record.name!r} is unreadable: {exc}") from None
     send_mode(runtime, "localization", str(yaml_path), record.name)
+    await runtime.rooms.use_map(record.name)
+    await asyncio.to_thread(runtime.zones.use_map, record.name)
     return runtime.status()
 
 
