@@ -10,6 +10,7 @@ Ground truth is published in a shared array for status and tests only.
 from __future__ import annotations
 
 import multiprocessing as mp
+import os
 import signal
 import time
 from dataclasses import dataclass
@@ -19,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from app.robot.scan_slot import ScanSlot
+from app.worker.lifeline import bind_to_parent
 
 PHYSICS_HZ = 100.0
 SCAN_HZ = 15.0
@@ -56,7 +58,8 @@ def start_simulator(world: str, seed: int, link: Path, ctx=None) -> tuple[SimHan
     truth = ctx.Array("d", 4)
     stop = ctx.Event()
     parent, child = ctx.Pipe(duplex=False)
-    proc = ctx.Process(target=run_simulator, args=(world, seed, str(link), scans, truth, stop, child),
+    proc = ctx.Process(target=run_simulator,
+                       args=(world, seed, str(link), scans, truth, stop, child, os.getpid()),
                        name="homebot-sim", daemon=True)
     proc.start()
     child.close()
@@ -74,9 +77,11 @@ def wait_ready(handles: SimHandles, ready: Connection) -> None:
         raise message
 
 
-def run_simulator(world_name: str, seed: int, link: str, scans: ScanSlot, truth, stop, ready) -> None:
+def run_simulator(world_name: str, seed: int, link: str, scans: ScanSlot, truth, stop, ready,
+                  parent_pid: int) -> None:
     """The simulator process: step physics in real time, scan, serve the MCU pty."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the server stops us through ``stop``
+    bind_to_parent(parent_pid, stop.set)  # ... and we stop when it dies
     from app.robot_link.virtual_mcu import VirtualMCU
     from slam_core.sim.lidar import Lidar
     from slam_core.sim.robot import SimRobot

@@ -18,6 +18,7 @@ import threading
 import time
 import traceback
 from dataclasses import dataclass, replace
+from pathlib import Path
 
 import numpy as np
 
@@ -27,6 +28,8 @@ from app.grabbers.scan_grabber import ScanGrabber, load_sensor_source
 from app.grabbers.shared import Latest
 from app.worker.checkpoint import load_checkpoint, save_checkpoint, save_exit_map
 from app.worker.estimators import Checkpoint, ModeUnavailable, dead_reckons, make_estimator, warm_up
+from app.worker.lifeline import bind_to_parent
+from app.worker.lockfile import acquire_worker_lock
 from app.worker.shared_map import SharedMap, grid_cells
 from slam_core.estimator import Estimate
 from slam_core.geometry import compose, relative, transform_points
@@ -41,6 +44,8 @@ POSE_SAVE_S = 0.2
 RATE_SMOOTHING = 0.2
 #: Keep this many poses of the trajectory drawn on the exit PNG.
 TRAJECTORY_KEEP = 20000
+#: A worker that has taken this many steps and then saved a checkpoint reports itself healthy.
+HEALTHY_STEPS = 10
 
 
 @dataclass
@@ -52,6 +57,7 @@ class WorkerSpec:
     port: str
     restart: int = 0
     initial_pose: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    parent_pid: int = 0  # the server; the worker ends when it dies
 
 
 def put_newest(q, item) -> None:
@@ -184,6 +190,7 @@ class Worker:
         self.scan_grabber.start()
         self._event("started", restart=self.spec.restart, mode=self.mode)
         last_odo = last_scan = 0
+        reported_healthy = False
         next_map = next_checkpoint = next_pose_save = time.monotonic()
         try:
             while not self.stop.is_set():
@@ -204,6 +211,9 @@ class Worker:
                 if now >= next_checkpoint:
                     save_checkpoint(s.checkpoint_dir, self._checkpoint())
                     next_checkpoint = next_pose_save = now + s.checkpoint_s
+                    if not reported_healthy and self.steps >= HEALTHY_STEPS:
+                        self._event("healthy")
+                        reported_healthy = True
                 elif now >= next_pose_save and self.ticks is not None:
                     save_checkpoint(s.checkpoint_dir, self._checkpoint(with_map=False), with_map=False)
                     next_pose_save = now + POSE_SAVE_S
@@ -289,7 +299,12 @@ def worker_main(spec: WorkerSpec, commands, states, scan_slot) -> None:
 
     signal.signal(signal.SIGTERM, _stop)
     signal.signal(signal.SIGINT, _stop)
+    bind_to_parent(spec.parent_pid, lambda: _stop(signal.SIGTERM, None))
     try:
+        lock = acquire_worker_lock(Path(spec.settings["data_dir"]))
+        if lock.ended_pid is not None:
+            put_newest(states, {"kind": "event", "event": "ended_stale_worker", "t": time.time(),
+                                "pid": lock.ended_pid})
         worker = Worker(spec, commands, states, scan_slot)
         worker.run()
     except Exception as exc:
