@@ -17,23 +17,11 @@ import pytest
 from app.worker.lockfile import DataDirBusy, acquire_worker_lock
 from app.worker.supervisor import RESTART_DELAY_CAP_S, restart_delay
 from tests.live_server import LiveServer
+from tests.recovery_harness import descendants
 
 ROOT = Path(__file__).resolve().parent.parent
 #: Semaphores of one worker generation (two queues of three each): all a killed server may leave.
 SEMAPHORES_PER_GENERATION = 6
-
-
-def descendants(pid: int) -> list[int]:
-    """All processes below ``pid`` (children of every thread, recursively)."""
-    found = []
-    for task in Path(f"/proc/{pid}/task").iterdir():
-        try:
-            children = (task / "children").read_text().split()
-        except OSError:
-            continue
-        for child in map(int, children):
-            found += [child, *descendants(child)]
-    return found
 
 
 def running(pid: int) -> bool:

@@ -4,7 +4,8 @@ The server talks to it exactly as to a real robot: odometry and velocity command
 over the serial link (the worker's odometry grabber opens the pty path with pyserial),
 scans arrive in a shared slot (:mod:`app.robot.scan_slot`); a real robot's come from
 ``settings.sensor_source``.
-Ground truth is published in a shared array for status and tests only.
+Ground truth is published in a shared array for status and tests only. SIGUSR1 cuts the
+virtual MCU's power for a moment (tests of recovery: it reboots with its counters at 0).
 """
 
 from __future__ import annotations
@@ -97,6 +98,7 @@ def run_simulator(world_name: str, seed: int, link: str, scans: ScanSlot, truth,
     except Exception as exc:  # reported to the parent, which raises it
         ready.send(RuntimeError(f"simulator failed to start: {exc}"))
         return
+    signal.signal(signal.SIGUSR1, lambda *_: mcu.power_cycle())  # fault injection: an MCU power cut
     ready.send(mcu.path)
     dt = 1.0 / PHYSICS_HZ
     scan_every = max(1, round(PHYSICS_HZ / SCAN_HZ))

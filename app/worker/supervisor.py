@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 
 from app.core.config import Settings
 from app.robot.scan_slot import ScanSlot
+from app.worker.checkpoint import quarantine_newest
 from app.worker.process import WorkerSpec, worker_main
 from app.worker.shared_map import SharedMap
 
@@ -88,6 +89,8 @@ class WorkerSupervisor:
         self._states = None
         self._stopping = threading.Event()
         self._relay: threading.Thread | None = None
+        self._resumed = False  # the current worker loaded its checkpoint and started
+        self._blamed = 0  # workers in a row that died after resuming, before they were healthy
 
     # lifecycle
     def start(self) -> None:
@@ -108,6 +111,7 @@ class WorkerSupervisor:
             self._process = proc
             self.health.alive, self.health.pid, self.health.started_at = True, proc.pid, time.time()
             self.health.healthy = False
+            self._resumed = False
 
     def _close_queues(self) -> None:
         """Release the last generation's queues (their feeder thread and semaphores) at once."""
@@ -166,8 +170,10 @@ class WorkerSupervisor:
         event = message.get("event") if message.get("kind") == "event" else None
         if event in ("crashed", "error"):
             self.health.last_error = message.get("detail")
+        elif event == "started":
+            self._resumed = True  # the checkpoint loaded: a death from now on may be its fault
         elif event == "healthy":
-            self.health.healthy, self.health.failures = True, 0
+            self.health.healthy, self.health.failures, self._blamed = True, 0, 0
         try:
             self.on_message(message)
         except Exception:  # a bug in a consumer must not stop the relay
@@ -188,6 +194,18 @@ class WorkerSupervisor:
             if proc is not None and not proc.is_alive() and not self._stopping.is_set():
                 self._restart(proc)
 
+    def _blame_checkpoint(self) -> None:
+        """The second worker in a row to die soon after resuming sets the newest snapshot aside."""
+        self._blamed += 1
+        if self._blamed < CRASH_LOOP_FAILURES:
+            return
+        self._blamed = 0
+        path = quarantine_newest(self.settings.checkpoint_dir)
+        if path is not None:
+            log.warning("the worker died twice in a row after resuming; set %s aside", path)
+            self._deliver({"kind": "event", "event": "checkpoint_quarantined", "t": time.time(),
+                           "path": str(path), "detail": "the worker died twice in a row after resuming it"})
+
     def _restart(self, proc: mp.Process) -> None:
         self._drain()
         code = proc.exitcode
@@ -199,7 +217,11 @@ class WorkerSupervisor:
         if not self.health.healthy:
             self.health.failures += 1
         self.health.history.append({"time": time.time(), "exit_code": code, "healthy": self.health.healthy})
-        delay = restart_delay(self.settings.worker_restart_delay_s, max(1, self.health.failures))
+        if self._resumed and not self.health.healthy:
+            self._blame_checkpoint()
+        # A worker that was healthy is replaced at once; failures in a row back off.
+        delay = 0.0 if self.health.healthy else restart_delay(self.settings.worker_restart_delay_s,
+                                                              self.health.failures)
         log.warning("worker exited (code %s); restarting from the last checkpoint in %.1f s", code, delay)
         self._stopping.wait(delay)
         if not self._stopping.is_set():

@@ -23,6 +23,8 @@ def degraded_reasons(runtime) -> list[str]:
     latest = runtime.latest
     if latest is None:
         reasons.append("no pose yet (worker starting)")
+    elif latest.get("relocalizing"):
+        reasons.append("not localized: looking for the robot in the restored map; mapping paused")
     elif not latest["localized"]:
         reasons.append("not localized")
     return reasons
