@@ -231,6 +231,8 @@ class Runtime:
         health = self.supervisor.health.dict() if self.supervisor else {}
         health["steps"] = latest["steps"] if latest else 0
         health["rate_hz"] = round(latest["rate_hz"], 2) if latest else 0.0
+        health["state_t"] = latest["t"] if latest else None  # when the worker last published a pose
+        health["relocalizing"] = bool(latest.get("relocalizing")) if latest else False
         nav = self.navigator
         return {
             "mode": self.mode,

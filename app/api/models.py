@@ -20,8 +20,9 @@ class Ok(BaseModel):
 
 
 class Health(BaseModel):
-    status: str
+    status: Literal["ok", "degraded"]
     version: str
+    reasons: list[str] = []
 
 
 class Login(Strict):

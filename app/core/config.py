@@ -52,7 +52,7 @@ class Settings(BaseSettings):
     rbpf_angular_update: float = Field(0.2, gt=0.0)
     mcl_min_particles: int = Field(300, ge=10)
     mcl_max_particles: int = Field(3000, ge=10)
-    checkpoint_s: float = Field(5.0, gt=0.0)
+    checkpoint_s: float = Field(1.0, gt=0.0)
     worker_restart_delay_s: float = Field(0.5, ge=0.0)
 
     control_hz: float = Field(10.0, ge=1.0, le=100.0)
