@@ -17,6 +17,7 @@ from app.core.login_limit import LoginLimiter
 from app.core.security import load_or_create_token
 from app.db.sessions import Sessions
 from app.runtime import Runtime
+from app.smarthome import start_smart_home
 
 STATIC_DIR = Path(__file__).resolve().parent.parent / "static"
 
@@ -30,9 +31,12 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         runtime = Runtime(settings, token)
         app.state.runtime = runtime
         await runtime.start()
+        bridge = await start_smart_home(runtime)
         try:
             yield
         finally:
+            if bridge is not None:
+                await bridge.stop()
             await runtime.stop()
 
     app = FastAPI(title="homebot", version="0.1.0", lifespan=lifespan, docs_url=None, redoc_url=None,

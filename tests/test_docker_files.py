@@ -47,7 +47,8 @@ def test_dockerfile_has_the_required_pieces():
     assert (REPO / "docker" / "warm_numba_cache.py").is_file()
     assert "NUMBA_CACHE_DIR" in args["ENV"]
 
-    assert "/api/health" in args["HEALTHCHECK"]
+    assert "docker/healthcheck.py" in args["HEALTHCHECK"]
+    assert "/api/health" in (REPO / "docker" / "healthcheck.py").read_text()
     assert "/data" in args["VOLUME"] and "HOMEBOT_DATA_DIR=/data" in args["ENV"]
     cmd = yaml.safe_load(args["CMD"])  # the exec form is a JSON (so YAML) list
     assert cmd[:2] == ["homebot", "serve"] and cmd[cmd.index("--host") + 1] == "0.0.0.0"

@@ -38,8 +38,9 @@ class Ok(BaseModel):
 
 
 class Health(BaseModel):
-    status: str
+    status: Literal["ok", "degraded"]
     version: str
+    reasons: list[str] = []
 
 
 class Login(Strict):
@@ -174,6 +175,7 @@ class Status(BaseModel):
     mapping: bool
     pose: dict | None
     localized: bool
+    room: str | None = None
     worker: dict
     map: dict | None
     goal: dict | None

@@ -20,6 +20,7 @@ from app.core.config import Settings
 from app.navigation.planning import PlanningError, follower_for, plan_path
 from app.navigation.progress import ProgressWatch, remaining_length
 from slam_core.occupancy_grid import OccupancyGrid
+from slam_core.planning.zones import Restrictions
 
 log = logging.getLogger(__name__)
 
@@ -97,6 +98,8 @@ class Navigator:
         self._watch = ProgressWatch(settings.stuck_after_s)
         self._recoveries = 0
         self._backing_until = 0.0
+        #: No-go zones and virtual walls every plan keeps out of (set by the runtime).
+        self.restrictions: Callable[[], Restrictions | None] = lambda: None
 
     def snapshot(self) -> dict:
         return {"goal": self.goal.dict() if self.goal else None,
@@ -112,7 +115,7 @@ class Navigator:
         if grid is None or pose is None:
             raise PlanningError("the robot has no map or pose yet")
         return await asyncio.to_thread(plan_path, grid, np.asarray(pose, float), (goal.x, goal.y),
-                                       goal.explore)
+                                       goal.explore, self.restrictions())
 
     @property
     def touring(self) -> bool:

@@ -10,6 +10,7 @@ from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.planning import planner
 from slam_core.planning.costmap import CostmapConfig, build_costmap
 from slam_core.planning.errors import PlanningError
+from slam_core.planning.zones import Restrictions, check_goal, exit_point, restricted_costmap
 
 __all__ = ["PlanningError", "follower_for", "plan_path"]
 
@@ -22,18 +23,27 @@ KNOWN_ONLY = CostmapConfig(unknown_cost=None, free_thresh=MAPPED_FREE_BELOW)
 EXPLORING = CostmapConfig(free_thresh=MAPPED_FREE_BELOW)
 
 
-def plan_path(grid: OccupancyGrid, pose: np.ndarray, goal, explore: bool = False) -> np.ndarray:
+def plan_path(grid: OccupancyGrid, pose: np.ndarray, goal, explore: bool = False,
+              restrictions: Restrictions | None = None) -> np.ndarray:
     """Waypoints ``(n, 2)`` from the pose to the goal; raises ``PlanningError`` with a ``reason``.
 
     Without ``explore`` a goal in unknown space fails with ``goal_in_unknown`` and the path stays
-    in mapped free space.
+    in mapped free space. With ``restrictions`` (no-go zones, virtual walls) the path keeps the
+    robot out of them; a robot inside one first leaves it by the nearest way out.
     """
-    costmap = build_costmap(grid, EXPLORING if explore else KNOWN_ONLY)
-    path = planner.plan_path(costmap, np.asarray(pose, float)[:2], np.asarray(goal, float))
+    config = EXPLORING if explore else KNOWN_ONLY
+    costmap = build_costmap(grid, config)
+    start = np.asarray(pose, float)[:2]
+    way_out = None
+    if restrictions:
+        check_goal(restrictions, goal)
+        costmap = restricted_costmap(costmap, restrictions, config.robot_radius)
+        way_out = exit_point(costmap, start)
+    path = planner.plan_path(costmap, start if way_out is None else way_out, np.asarray(goal, float))
     waypoints = np.asarray(path.waypoints, float)
     if not path.snapped:  # the search ends at the goal cell's centre: end at the goal itself
         waypoints[-1] = path.requested_goal
-    return waypoints
+    return waypoints if way_out is None else np.vstack([start, waypoints])
 
 
 def follower_for(waypoints: np.ndarray, settings: Settings) -> PurePursuit:

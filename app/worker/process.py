@@ -18,6 +18,7 @@ import threading
 import time
 import traceback
 from dataclasses import dataclass, replace
+from pathlib import Path
 
 import numpy as np
 
@@ -25,13 +26,26 @@ from app.core.config import Settings
 from app.grabbers.odometry_grabber import OdometryGrabber
 from app.grabbers.scan_grabber import ScanGrabber, load_sensor_source
 from app.grabbers.shared import Latest
-from app.worker.checkpoint import load_checkpoint, save_checkpoint, save_exit_map
-from app.worker.estimators import Checkpoint, ModeUnavailable, dead_reckons, make_estimator, warm_up
-from app.worker.shared_map import SharedMap, grid_cells
+from app.worker.checkpoint import load_checkpoint, save_exit_map, save_pose, save_snapshot
+from app.worker.estimators import (
+    Checkpoint,
+    ModeUnavailable,
+    dead_reckons,
+    make_estimator,
+    map_with_hits,
+    warm_up,
+)
+from app.worker.lifeline import bind_to_parent
+from app.worker.lockfile import acquire_worker_lock
+from app.worker.map_limits import check_room, map_box, scan_reach
+from app.worker.relocalize import Relocalizer
+from app.worker.shared_map import MapTooLarge, SharedMap, grid_cells
 from slam_core.estimator import Estimate
 from slam_core.geometry import compose, relative, transform_points
 from slam_core.io.ros_map import load_map
-from slam_core.sensors.wheel_odometry import ticks_to_increment, wrapped_delta
+from slam_core.occupancy_grid import SensorModel
+from slam_core.rbpf.config import RBPFConfig
+from slam_core.rbpf.filter import RBPFSlam
 
 log = logging.getLogger(__name__)
 
@@ -41,6 +55,8 @@ POSE_SAVE_S = 0.2
 RATE_SMOOTHING = 0.2
 #: Keep this many poses of the trajectory drawn on the exit PNG.
 TRAJECTORY_KEEP = 20000
+#: A worker that has taken this many steps and then saved a checkpoint reports itself healthy.
+HEALTHY_STEPS = 10
 
 
 @dataclass
@@ -52,6 +68,7 @@ class WorkerSpec:
     port: str
     restart: int = 0
     initial_pose: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    parent_pid: int = 0  # the server; the worker ends when it dies
 
 
 def put_newest(q, item) -> None:
@@ -79,7 +96,10 @@ class Worker:
             self.scan_grabber = ScanGrabber(slot=scan_slot, output=self.scans)
         else:
             self.scan_grabber = ScanGrabber(source=load_sensor_source(s.sensor_source), output=self.scans)
-        checkpoint = load_checkpoint(s.checkpoint_dir)
+        restored = load_checkpoint(s.checkpoint_dir, s.map_capacity_cells)
+        for path, reason in restored.quarantined:
+            self._event("checkpoint_quarantined", path=str(path), detail=reason)
+        checkpoint, self.generation = restored.checkpoint, restored.generation
         self.mode = checkpoint.mode if checkpoint else s.mode
         self.mapping = checkpoint.mapping if checkpoint else True
         self.map_name = checkpoint.map_name if checkpoint else None
@@ -94,12 +114,18 @@ class Worker:
         self.anchor: tuple[np.ndarray, np.ndarray] | None = None
         self.updated_at: np.ndarray | None = None  # re-anchored odometry at the estimator's last update
         self.ticks: tuple[int, int] | None = None  # encoder counts of the last step
-        self.resume_ticks = checkpoint.ticks if checkpoint else None  # counts at the checkpoint pose
         self.steps = 0
         self.rate_hz = 0.0
         self.last_step = None
         self.trajectory: list[np.ndarray] = []
         self.map_written = False
+        # The map as last restored or handed over: estimators without a map of their own (EKF)
+        # or without hit sums (MCL, frozen) are checkpointed with it, so a mode switch keeps it.
+        self.kept_grid, self.kept_hits = checkpoint.grid, checkpoint.hit_sums
+        self.map_changed = False  # since the last snapshot
+        # A restored map: find the robot in it before anything is written (app.worker.relocalize).
+        self.relocalizer = None if restored.checkpoint is None else self._relocalizer()
+        self.relocalizing_from: tuple[np.ndarray, np.ndarray] | None = None  # (odometry, pose) at the start
 
     # messages to the server
     def _event(self, event: str, **fields) -> None:
@@ -121,14 +147,30 @@ class Worker:
             "particles": None if particles is None else np.asarray(particles, np.float32),
             "weights": None if weights is None else np.asarray(weights, np.float32),
             "points": points, "mode": self.mode, "mapping": self.mapping, "steps": self.steps,
+            "relocalizing": self.relocalizer is not None,
             "rate_hz": self.rate_hz,
             "landmarks": estimate.landmarks, "landmark_covariances": estimate.landmark_covariances,
         })
 
     # estimator management
     def _checkpoint(self, with_map: bool = True) -> Checkpoint:
-        grid = self.estimator.occupancy_map() if with_map else None
-        return Checkpoint(self.mode, self.pose.copy(), grid, self.mapping, self.map_name, self.ticks)
+        grid = hits = None
+        if with_map:
+            grid, hits = map_with_hits(self.estimator)
+            if grid is None or not grid.data.size:
+                grid, hits = self.kept_grid, self.kept_hits
+            elif hits is None and self.kept_hits is not None and self.kept_hits.shape[:2] == grid.shape:
+                hits = self.kept_hits
+        return Checkpoint(self.mode, self.pose.copy(), grid, self.mapping, self.map_name, self.ticks, hits)
+
+    def _save(self, with_map: bool) -> None:
+        """A snapshot (map and pose) or just the pose; see :mod:`app.worker.checkpoint`."""
+        directory = self.settings.checkpoint_dir
+        if with_map:
+            self.generation = save_snapshot(directory, self._checkpoint())
+            self.map_changed = False
+        else:
+            save_pose(directory, self._checkpoint(with_map=False), self.generation)
 
     def _rebuild(self, mode: str, grid=None, pose=None, mapping=None, map_name=None) -> None:
         """Swap the estimator, keeping the map frame continuous (odometry re-anchored)."""
@@ -137,10 +179,13 @@ class Worker:
             mode, current.pose if pose is None else np.asarray(pose, float),
             current.grid if grid is None else grid,
             current.mapping if mapping is None else mapping,
-            map_name if map_name is not None else current.map_name)
+            map_name if map_name is not None else current.map_name,
+            hit_sums=current.hit_sums if grid is None else None)
         estimator = make_estimator(mode, self.settings, checkpoint)  # ModeUnavailable: keep the old one
         self.estimator, self.mode, self.mapping = estimator, mode, checkpoint.mapping
         self.pose, self.map_name = checkpoint.pose, checkpoint.map_name
+        self.kept_grid, self.kept_hits = checkpoint.grid, checkpoint.hit_sums
+        self.map_changed = True
         self.anchor = None
         self.updated_at = None
         self.map_written = False
@@ -156,7 +201,12 @@ class Worker:
                 grid = load_map(yaml_path) if yaml_path else None
                 self._rebuild(mode, grid=grid, mapping=True, map_name=map_name)
             elif name == "pose":
-                self._rebuild(self.mode, pose=np.asarray(args, float))
+                pose = np.asarray(args, float)
+                self._check_room(pose, SensorModel().usable_range)
+                if self.relocalizer is not None:  # the person's pose becomes the search's guess
+                    self.pose, self.relocalizing_from = pose, None
+                else:
+                    self._rebuild(self.mode, pose=pose)
             elif name == "mapping":
                 self._rebuild("mapping", mapping=bool(args[0]))
             elif name == "shutdown":
@@ -167,6 +217,50 @@ class Worker:
             self._event("changed", mode=self.mode, mapping=self.mapping)
         except (ModeUnavailable, ValueError, OSError) as exc:
             self._event("error", detail=f"{name}: {exc}")
+
+    def _check_room(self, pose, reach: float) -> None:
+        """:class:`MapTooLarge` if a scan from ``pose`` would grow the map past its limit."""
+        s = self.settings
+        check_room(map_box(self.estimator, self.kept_grid), pose, reach, s.resolution, s.map_capacity_cells)
+
+    def _room_to_map(self, pose, scan) -> bool:
+        """Whether mapping may go on at ``pose``; at the map's limit mapping pauses, with an error event."""
+        if not isinstance(self.estimator, RBPFSlam):
+            return True
+        try:
+            self._check_room(pose, scan_reach(scan, self.estimator.maps.model))
+            return True
+        except MapTooLarge as exc:
+            self._event("error", detail=f"mapping paused: {exc}")
+            self._rebuild("mapping", mapping=False)
+            return False
+
+    def _relocalizer(self) -> Relocalizer | None:
+        current = self._checkpoint()
+        if current.grid is None or not current.grid.data.size:
+            return None
+        return Relocalizer(current.grid, current.hit_sums, RBPFConfig(resolution=current.grid.resolution))
+
+    def _relocalize(self, odometry, scan) -> bool:
+        """Look for the robot in the restored map; until found, publish the guess and map nothing.
+
+        The guess is the last pose carried on by the odometry since the start. Once found, the
+        estimator is rebuilt at the pose found, so mapping continues the same map, in register.
+        """
+        if self.relocalizing_from is None:
+            self.relocalizing_from = (np.asarray(odometry, float).copy(), self.pose.copy())
+        odo0, pose0 = self.relocalizing_from
+        guess = compose(pose0, relative(odo0, odometry))
+        fix = self.relocalizer.locate(scan, guess)
+        if fix is None:
+            self.pose = guess
+            self._publish_state(scan, Estimate(pose=guess, localized=False))
+            return False
+        self.relocalizer = self.relocalizing_from = None
+        self._rebuild(self.mode, pose=fix.pose)
+        self._event("relocalized", search=fix.search, fit=round(fix.fit, 3),
+                    pose=[round(float(v), 4) for v in fix.pose])
+        return True
 
     def _drain_commands(self) -> None:
         while True:
@@ -184,6 +278,7 @@ class Worker:
         self.scan_grabber.start()
         self._event("started", restart=self.spec.restart, mode=self.mode)
         last_odo = last_scan = 0
+        reported_healthy = False
         next_map = next_checkpoint = next_pose_save = time.monotonic()
         try:
             while not self.stop.is_set():
@@ -201,33 +296,32 @@ class Worker:
                 if now >= next_map:
                     self._publish_map()
                     next_map = now + 1.0 / s.map_hz
-                if now >= next_checkpoint:
-                    save_checkpoint(s.checkpoint_dir, self._checkpoint())
+                if now >= next_checkpoint and self.map_changed:
+                    self._save(with_map=True)
                     next_checkpoint = next_pose_save = now + s.checkpoint_s
+                    if not reported_healthy and self.steps >= HEALTHY_STEPS:
+                        self._event("healthy")
+                        reported_healthy = True
                 elif now >= next_pose_save and self.ticks is not None:
-                    save_checkpoint(s.checkpoint_dir, self._checkpoint(with_map=False), with_map=False)
+                    self._save(with_map=False)
                     next_pose_save = now + POSE_SAVE_S
         finally:
             self._exit()
 
     def _step(self, reading, scan) -> None:
         odometry = reading.pose
-        if self.anchor is None:
-            start = self.pose.copy()
-            if self.resume_ticks is not None:
-                # Restarted: the robot moved on while no worker ran; the MCU's counters tell how far.
-                d_left = wrapped_delta(reading.ticks[0], self.resume_ticks[0])
-                d_right = wrapped_delta(reading.ticks[1], self.resume_ticks[1])
-                start = compose(start, ticks_to_increment(d_left, d_right, self.odometry_grabber.geometry))
-                self.resume_ticks = None
-                if d_left or d_right:
-                    self._rebuild(self.mode, pose=start)  # the estimator starts where the robot is
-            self.anchor = (np.asarray(odometry, float).copy(), start)
         self.ticks = reading.ticks
+        if self.relocalizer is not None and not self._relocalize(odometry, scan):
+            return
+        if self.anchor is None:
+            self.anchor = (np.asarray(odometry, float).copy(), self.pose.copy())
         odo0, pose0 = self.anchor
         odometry = compose(pose0, relative(odo0, odometry))
+        if not self._room_to_map(odometry, scan):
+            return
         if self.estimator.step(odometry, scan) or self.updated_at is None:
             self.updated_at = odometry
+            self.map_changed = True
         estimate = self.estimator.estimate()
         if not dead_reckons(self.estimator):
             estimate = self._dead_reckoned(estimate, relative(self.updated_at, odometry))
@@ -268,10 +362,10 @@ class Worker:
         with contextlib.suppress(Exception):
             self.odometry_grabber.send_velocity(0.0, 0.0)
         s = self.settings
-        grid = self.estimator.occupancy_map()
+        grid = self._checkpoint().grid
         if grid is not None and grid.data.size:
+            self._save(with_map=True)
             paths = save_exit_map(grid, s.last_map_stem, np.array(self.trajectory).reshape(-1, 3))
-            save_checkpoint(s.checkpoint_dir, self._checkpoint())
             self._event("saved", paths=[str(p) for p in paths])
         self.odometry_grabber.stop()
         self.scan_grabber.stop()
@@ -289,7 +383,12 @@ def worker_main(spec: WorkerSpec, commands, states, scan_slot) -> None:
 
     signal.signal(signal.SIGTERM, _stop)
     signal.signal(signal.SIGINT, _stop)
+    bind_to_parent(spec.parent_pid, lambda: _stop(signal.SIGTERM, None))
     try:
+        lock = acquire_worker_lock(Path(spec.settings["data_dir"]))
+        if lock.ended_pid is not None:
+            put_newest(states, {"kind": "event", "event": "ended_stale_worker", "t": time.time(),
+                                "pid": lock.ended_pid})
         worker = Worker(spec, commands, states, scan_slot)
         worker.run()
     except Exception as exc:

@@ -41,9 +41,12 @@ async def create_map(body: MapBody, runtime: RuntimeDep, store: StoreDep, settin
     await asyncio.to_thread(save_map, grid, settings.maps_dir / body.name)
     await asyncio.to_thread(save_png, grid, map_file(settings.maps_dir, body.name, ".png"))
     try:
-        return store.add_map(body.name, grid.shape[1], grid.shape[0], grid.resolution).dict()
+        record = store.add_map(body.name, grid.shape[1], grid.shape[0], grid.resolution).dict()
     except db.AlreadyExists as exc:
         raise ApiError(status.HTTP_409_CONFLICT, "name_taken", str(exc)) from None
+    await runtime.rooms.save_as(body.name)
+    await asyncio.to_thread(runtime.zones.save_as, body.name)
+    return record
 
 
 @router.post("/{name:name}/load", response_model=Status,
@@ -52,7 +55,10 @@ async def create_map_load(runtime: RuntimeDep, store: StoreDep, response: Respon
                           name: MapNameParam) -> dict:
     """Localize on the saved map (switches to localization mode once its files check out)."""
     yaml_path = await checked_map_file(runtime, store, name)
-    return await switch_mode(runtime, response, "localization", str(yaml_path), name)
+    status_now = await switch_mode(runtime, response, "localization", str(yaml_path), name)
+    await runtime.rooms.use_map(name)
+    await asyncio.to_thread(runtime.zones.use_map, name)
+    return status_now
 
 
 @router.get("/{name:name}.png", response_class=Response, responses={200: {"content": {"image/png": {}}}})
