@@ -87,7 +87,7 @@ def test_rename_split_go_and_merge(server):
 @pytest.mark.parametrize(("method", "path", "body", "code", "text"), [
     ("patch", "/api/rooms/999", {"name": "x"}, 404, "no room with id 999"),
     ("patch", "/api/rooms/1", {"name": "../etc"}, 422, "room name"),
-    ("patch", "/api/rooms/1", {"name": "x", "colour": 3}, 422, "extra"),
+    ("patch", "/api/rooms/1", {"name": "x", "colour": 3}, 422, "Extra inputs"),
     ("post", "/api/rooms/merge", {"keep": 1, "absorb": 1}, 409, "itself"),
     ("post", "/api/rooms/1/split", {"a": [0, 0], "b": [0]}, 422, "at least 2"),
     ("post", "/api/rooms/1/split", {"a": [50, 50], "b": [51, 50]}, 409, "does not cut"),

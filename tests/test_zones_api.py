@@ -84,7 +84,7 @@ def test_a_robot_carried_into_a_zone_leaves_it_by_the_nearest_way(server):
     ({"kind": "wall", "points": [[0, 0], [1, 1], [2, 0]]}, "exactly 2 points"),
     ({"kind": "wall", "points": [[0, 0], [0, 0]]}, "distinct"),
     ({"kind": "wall", "points": [[0, 0], [1]]}, "at least 2"),
-    ({"kind": "wall", "points": [[0, 0], [1, 1]], "colour": "red"}, "extra"),
+    ({"kind": "wall", "points": [[0, 0], [1, 1]], "colour": "red"}, "Extra inputs"),
 ])
 def test_bad_zones_are_refused_with_a_reason(server, body, text):
     with server.client() as http:

@@ -115,7 +115,7 @@ class Navigator:
         if grid is None or pose is None:
             raise PlanningError("the robot has no map or pose yet")
         return await asyncio.to_thread(plan_path, grid, np.asarray(pose, float), (goal.x, goal.y),
-                                       goal.explore, self.restrictions())
+                                       self.restrictions(), explore=goal.explore)
 
     @property
     def touring(self) -> bool:
@@ -196,13 +196,15 @@ class Navigator:
         if now < self._backing_until:
             self._send(-BACKOFF_SPEED, 0.0)
             return
-        if self._watch.stalled(now, remaining_length(self._follower, pose)):
-            self._recover(now)
-            return
         if now - self._last_plan >= self.settings.replan_s and not self._replanning:
             self._last_plan = now
             self._replan_task = asyncio.create_task(self._replan(self._generation))
         v, w = self._follower.command(np.asarray(pose, float))
+        if v == 0.0 and w != 0.0:
+            self._watch.restart(now)  # turning on the spot toward the next leg is not a stall
+        elif self._watch.stalled(now, remaining_length(self._follower, pose)):
+            self._recover(now)
+            return
         self._send(v, w)
 
     def _recover(self, now: float) -> None:

@@ -23,8 +23,8 @@ KNOWN_ONLY = CostmapConfig(unknown_cost=None, free_thresh=MAPPED_FREE_BELOW)
 EXPLORING = CostmapConfig(free_thresh=MAPPED_FREE_BELOW)
 
 
-def plan_path(grid: OccupancyGrid, pose: np.ndarray, goal, explore: bool = False,
-              restrictions: Restrictions | None = None) -> np.ndarray:
+def plan_path(grid: OccupancyGrid, pose: np.ndarray, goal, restrictions: Restrictions | None = None,
+              *, explore: bool = False) -> np.ndarray:
     """Waypoints ``(n, 2)`` from the pose to the goal; raises ``PlanningError`` with a ``reason``.
 
     Without ``explore`` a goal in unknown space fails with ``goal_in_unknown`` and the path stays

@@ -9,7 +9,7 @@ from fastapi import APIRouter, HTTPException, Path, status
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from app.api.deps import RuntimeDep
-from app.api.models import GoalResponse
+from app.api.models import Coordinate, GoalResponse
 from app.api.routes.navigation import start_goal
 from app.db.names import check_name
 from app.navigation.navigator import Goal
@@ -20,7 +20,7 @@ from slam_core.rooms.layout import RoomEditError
 router = APIRouter(prefix="/rooms", tags=["rooms"])
 
 RoomId = Path(ge=1, le=1_000_000)
-Point = Annotated[list[Annotated[float, Field(allow_inf_nan=False)]], Field(min_length=2, max_length=2)]
+Point = Annotated[list[Coordinate], Field(min_length=2, max_length=2)]
 
 
 class Room(BaseModel):
@@ -78,7 +78,7 @@ async def read_overlay(runtime: RuntimeDep) -> dict:
     return await asyncio.to_thread(build)
 
 
-@router.patch("/{room}", response_model=list[Room])
+@router.patch("/{room:int}", response_model=list[Room])
 async def update_room(body: RoomPatch, runtime: RuntimeDep, room: int = RoomId) -> list[dict]:
     """Rename a room (409 when another room has that name)."""
     return await _edited(runtime.rooms, lambda layout: layout.renamed(room, body.name))
@@ -90,13 +90,13 @@ async def create_merge(body: MergeBody, runtime: RuntimeDep) -> list[dict]:
     return await _edited(runtime.rooms, lambda layout: layout.merged(body.keep, body.absorb))
 
 
-@router.post("/{room}/split", response_model=list[Room])
+@router.post("/{room:int}/split", response_model=list[Room])
 async def create_split(body: SplitBody, runtime: RuntimeDep, room: int = RoomId) -> list[dict]:
     """Split a room along the line through ``a`` and ``b``; the part left of a->b gets a new id."""
     return await _edited(runtime.rooms, lambda layout: layout.split(room, body.a, body.b))
 
 
-@router.post("/{room}/go", response_model=GoalResponse, status_code=status.HTTP_202_ACCEPTED)
+@router.post("/{room:int}/go", response_model=GoalResponse, status_code=status.HTTP_202_ACCEPTED)
 async def create_room_goal(runtime: RuntimeDep, room: int = RoomId) -> dict:
     """Drive to the middle of the room (its point farthest from walls and doorways)."""
     try:

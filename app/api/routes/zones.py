@@ -9,11 +9,12 @@ from fastapi import APIRouter, HTTPException, Path, Response, status
 from pydantic import BaseModel, ConfigDict, Field
 
 from app.api.deps import RuntimeDep
+from app.api.models import Coordinate
 from app.zones.service import ZoneError
 
 router = APIRouter(prefix="/zones", tags=["zones"])
 
-Point = Annotated[list[Annotated[float, Field(allow_inf_nan=False)]], Field(min_length=2, max_length=2)]
+Point = Annotated[list[Coordinate], Field(min_length=2, max_length=2)]
 
 
 class Zone(BaseModel):
