@@ -58,7 +58,7 @@ def test_compose_runs_the_simulation_on_port_8000_with_a_named_volume():
     compose = yaml.safe_load((REPO / "docker-compose.yml").read_text())
     service = compose["services"]["homebot"]
     assert service["build"] == "."
-    assert "8000:8000" in service["ports"]
+    assert service["ports"] == ["127.0.0.1:8000:8000"], "published on the loopback only"
     command = service["command"] if isinstance(service["command"], list) else shlex.split(service["command"])
     assert command[:2] == ["homebot", "serve"] and "--real" not in command
     assert command[command.index("--port") + 1] == "8000"

@@ -53,7 +53,10 @@ def effective_config(args) -> RBPFConfig:
 def run(args) -> int:
     log = resolve_log(args.log)
     config = effective_config(args)
-    total = count_laser_lines(log)
+    try:
+        total = count_laser_lines(log)
+    except (OSError, EOFError):
+        total = None  # an unreadable log: the reader below reports the file and line
     with count_bar(f"slam {log.name}", total, "scan") as tick:
         result = slam_from_log(log, config, seed=args.seed, on_scan=lambda: tick(1),
                                laser_mount=args.laser_mount)

@@ -36,7 +36,7 @@ class Settings(BaseSettings):
 
     cors_origins: Annotated[list[str], NoDecode] = Field(default_factory=list)
     max_body_bytes: int = Field(64 * 1024, ge=1024)
-    token: str | None = Field(None, min_length=16)
+    token: str | None = Field(None, min_length=32)
 
     stream_hz: float = Field(15.0, ge=10.0, le=60.0)
     map_hz: float = Field(2.0, ge=1.0, le=10.0)
@@ -57,7 +57,7 @@ class Settings(BaseSettings):
 
     control_hz: float = Field(10.0, ge=1.0, le=100.0)
     replan_s: float = Field(2.0, gt=0.0)
-    goal_tolerance: float = Field(0.25, gt=0.0)
+    goal_tolerance: float = Field(0.08, gt=0.0, le=1.0)
     max_speed: float = Field(0.4, gt=0.0)
     max_turn_rate: float = Field(1.2, gt=0.0)
     teleop_hold_s: float = Field(0.5, gt=0.0)

@@ -28,6 +28,9 @@ import numpy as np
 from slam_core.geometry import relative, wrap_angle
 from slam_core.scan import Scan, uniform_angles
 
+#: Largest pose or odometry value accepted (m, rad, m/s): larger ones are garbage, not travel.
+MAX_POSE_VALUE = 1e6
+
 #: Readings at or above this many metres mean "no return" in FLASER logs (81.83 / 81.91).
 FLASER_NO_RETURN = 80.0
 #: Readings below this are not measurements.
@@ -203,6 +206,9 @@ class CarmenReader:
         if finite and not np.isfinite(values).all():
             text = " ".join(fields[start:start + count])
             raise LogFormatError(self.path, line_number, f"{what}: not finite ({text})")
+        if finite and np.abs(values).max() > MAX_POSE_VALUE:
+            raise LogFormatError(self.path, line_number, f"{what}: a value beyond ±{MAX_POSE_VALUE:g} "
+                                                         "(no robot travels that far)")
         return values
 
     def _stamp(self, fields, start, line_number, kind) -> Stamp:
