@@ -141,6 +141,7 @@ class Status(BaseModel):
     rates: dict
     clients: int
     sim: bool
+    replay: dict | None = None
     true_pose: list[float] | None
     events: list[dict]
     time: float

@@ -1,10 +1,9 @@
 """The SLAM worker process: synchronised estimator steps, published state, map and checkpoints.
 
-Persistent synchronisation (the seed's SLAM loop): a step is taken only when BOTH a
-new odometry reading and a new scan have arrived since the last step; stale data is
-never stepped twice. After each step the pose, particle cloud and scan go to the
-server on a small queue; the map goes into shared memory at ``map_hz``, with per-tile
-change stamps (:mod:`app.worker.shared_map`), so the map is never pickled.
+Scans are paired with odometry by :mod:`app.worker.pairing`. With ``settings.replay``
+a CARMEN log takes the robot's place (:mod:`app.replay`). After each step the pose,
+particle cloud and scan go to the server on a small queue; the map goes into shared
+memory at ``map_hz``, with per-tile change stamps (:mod:`app.worker.shared_map`), so the map is never pickled.
 """
 
 from __future__ import annotations
@@ -17,17 +16,30 @@ import signal
 import threading
 import time
 import traceback
-from dataclasses import dataclass, replace
+from dataclasses import asdict, dataclass, replace
+from pathlib import Path
 
 import numpy as np
 
 from app.core.config import Settings
 from app.grabbers.odometry_grabber import OdometryGrabber
+from app.grabbers.odometry_history import OdometryHistory
 from app.grabbers.scan_grabber import ScanGrabber, load_sensor_source
 from app.grabbers.shared import Latest
+from app.replay.log_feed import LogReplay, read_laser_records, replay_name
+from app.replay.recording import ReplayRecording
 from app.worker.checkpoint import load_checkpoint, save_checkpoint, save_exit_map
-from app.worker.estimators import Checkpoint, ModeUnavailable, dead_reckons, make_estimator, warm_up
+from app.worker.estimators import (
+    Checkpoint,
+    FrozenMap,
+    ModeUnavailable,
+    dead_reckons,
+    make_estimator,
+    warm_up,
+)
+from app.worker.pairing import NewestPairing, Pair, StampedPairing
 from app.worker.shared_map import SharedMap, grid_cells
+from slam_core.datasets import resolve_log
 from slam_core.estimator import Estimate
 from slam_core.geometry import compose, relative, transform_points
 from slam_core.io.ros_map import load_map
@@ -72,18 +84,28 @@ class Worker:
         s = self.settings
         self.shm = SharedMap(s.map_capacity_cells, s.tile_size, name=spec.shm_name)
         self.wakeup = threading.Event()
-        self.odometry = Latest()
         self.scans = Latest()
-        self.odometry_grabber = OdometryGrabber(spec.port, s.serial_baud, output=self.odometry)
-        if scan_slot is not None:
-            self.scan_grabber = ScanGrabber(slot=scan_slot, output=self.scans)
+        self.replay: ReplayRecording | None = None
+        self.anchor: tuple[np.ndarray, np.ndarray] | None = None
+        if s.replay:
+            initial_pose = self._open_replay(s.replay_dir)
+            checkpoint = None  # a replay always starts afresh, and leaves the robot's checkpoint alone
         else:
-            self.scan_grabber = ScanGrabber(source=load_sensor_source(s.sensor_source), output=self.scans)
-        checkpoint = load_checkpoint(s.checkpoint_dir)
+            self.odometry = Latest()
+            self.odometry_grabber = OdometryGrabber(spec.port, s.serial_baud, output=self.odometry)
+            if scan_slot is not None:
+                self.scan_grabber = ScanGrabber(slot=scan_slot, output=self.scans)
+            else:
+                self.scan_grabber = ScanGrabber(source=load_sensor_source(s.sensor_source), output=self.scans)
+            self.link = self.odometry_grabber
+            self.sources = [self.odometry_grabber, self.scan_grabber]
+            self.pairing = NewestPairing(self.odometry, self.scans)
+            initial_pose = spec.initial_pose
+            checkpoint = load_checkpoint(s.checkpoint_dir)
         self.mode = checkpoint.mode if checkpoint else s.mode
         self.mapping = checkpoint.mapping if checkpoint else True
         self.map_name = checkpoint.map_name if checkpoint else None
-        self.pose = checkpoint.pose.copy() if checkpoint else np.array(spec.initial_pose, float)
+        self.pose = checkpoint.pose.copy() if checkpoint else np.array(initial_pose, float)
         checkpoint = checkpoint or Checkpoint(self.mode, self.pose.copy())
         try:
             self.estimator = make_estimator(self.mode, s, checkpoint)
@@ -91,7 +113,6 @@ class Worker:
             self._event("error", detail=str(exc))
             self.mode = "mapping"
             self.estimator = make_estimator("mapping", s, checkpoint)
-        self.anchor: tuple[np.ndarray, np.ndarray] | None = None
         self.updated_at: np.ndarray | None = None  # re-anchored odometry at the estimator's last update
         self.ticks: tuple[int, int] | None = None  # encoder counts of the last step
         self.resume_ticks = checkpoint.ticks if checkpoint else None  # counts at the checkpoint pose
@@ -100,6 +121,22 @@ class Worker:
         self.last_step = None
         self.trajectory: list[np.ndarray] = []
         self.map_written = False
+
+    def _open_replay(self, replay_dir: Path) -> np.ndarray:
+        """The log takes the robot's place; returns the first record's odometry, the start pose."""
+        s = self.settings
+        path = resolve_log(s.replay)
+        records, warnings = read_laser_records(path)
+        name = replay_name(s.replay)
+        history = OdometryHistory()
+        self.feed = LogReplay(records, s.replay_speed, history, self.scans)
+        self.replay = ReplayRecording(path, name, records, replay_dir / name, s.replay_speed, s.seed,
+                                      warnings)
+        self.link = self.feed
+        self.sources = [self.feed]
+        self.pairing = StampedPairing(history, self.scans)
+        self.anchor = (np.zeros(3), np.zeros(3))  # the log's odometry frame is the map frame, as offline
+        return records[0].odom
 
     # messages to the server
     def _event(self, event: str, **fields) -> None:
@@ -123,7 +160,11 @@ class Worker:
             "points": points, "mode": self.mode, "mapping": self.mapping, "steps": self.steps,
             "rate_hz": self.rate_hz,
             "landmarks": estimate.landmarks, "landmark_covariances": estimate.landmark_covariances,
+            "replay": self._replay_progress(),
         })
+
+    def _replay_progress(self) -> dict | None:
+        return None if self.replay is None else asdict(self.replay.progress(self.feed.played))
 
     # estimator management
     def _checkpoint(self, with_map: bool = True) -> Checkpoint:
@@ -148,7 +189,7 @@ class Worker:
     def _handle(self, command: tuple) -> None:
         name, *args = command
         if name == "velocity":
-            self.odometry_grabber.send_velocity(*args)
+            self.link.send_velocity(*args)
             return
         try:
             if name == "mode":
@@ -180,27 +221,24 @@ class Worker:
     def run(self) -> None:
         s = self.settings
         warm_up(s)
-        self.odometry_grabber.start()
-        self.scan_grabber.start()
+        for source in self.sources:
+            source.start()
         self._event("started", restart=self.spec.restart, mode=self.mode)
-        last_odo = last_scan = 0
         next_map = next_checkpoint = next_pose_save = time.monotonic()
         try:
             while not self.stop.is_set():
                 self._drain_commands()
-                odo_seq, odo = self.odometry.get()
-                scan_seq, scan = self.scans.get()
-                if odo_seq > last_odo and scan_seq > last_scan:
-                    last_odo, last_scan = odo_seq, scan_seq
-                    self._step(odo, scan)
-                else:
-                    # Wait for whichever is missing (never step on stale data).
-                    missing = self.odometry if odo_seq <= last_odo else self.scans
-                    missing.wait_newer(odo_seq if missing is self.odometry else scan_seq, WAIT_S)
+                pair = self.pairing.next(WAIT_S)
+                if pair is not None:
+                    self._step(pair)
+                if self._replay_played():
+                    self._finish_replay()
                 now = time.monotonic()
                 if now >= next_map:
                     self._publish_map()
                     next_map = now + 1.0 / s.map_hz
+                if self.replay is not None:
+                    continue  # a replay keeps no checkpoint
                 if now >= next_checkpoint:
                     save_checkpoint(s.checkpoint_dir, self._checkpoint())
                     next_checkpoint = next_pose_save = now + s.checkpoint_s
@@ -210,7 +248,8 @@ class Worker:
         finally:
             self._exit()
 
-    def _step(self, reading, scan) -> None:
+    def _step(self, pair: Pair) -> None:
+        reading, scan = pair.odometry, pair.scan
         odometry = reading.pose
         if self.anchor is None:
             start = self.pose.copy()
@@ -226,8 +265,12 @@ class Worker:
         self.ticks = reading.ticks
         odo0, pose0 = self.anchor
         odometry = compose(pose0, relative(odo0, odometry))
-        if self.estimator.step(odometry, scan) or self.updated_at is None:
+        updated = self.estimator.step(odometry, scan)
+        if updated or self.updated_at is None:
             self.updated_at = odometry
+        if self.replay is not None:
+            self.replay.stepped(pair.scan_seq - 1, updated, self.estimator.stats.updates - 1)
+            self.feed.mark_stepped(pair.scan_seq - 1)
         estimate = self.estimator.estimate()
         if not dead_reckons(self.estimator):
             estimate = self._dead_reckoned(estimate, relative(self.updated_at, odometry))
@@ -241,6 +284,24 @@ class Worker:
         self.trajectory.append(self.pose.copy())
         del self.trajectory[:-TRAJECTORY_KEEP]
         self._publish_state(scan, estimate)
+
+    def _replay_played(self) -> bool:
+        """Whether the whole log was played and every scan taken, with the back end still to run."""
+        return (self.replay is not None and self.replay.phase == "playing" and self.feed.ended.is_set()
+                and self.pairing.last_scan == len(self.replay.records))
+
+    def _finish_replay(self) -> None:
+        """The final optimisation: publish and write the optimised map and trajectory; mapping stops."""
+        self.replay.phase = "optimising"
+        self._event("replay_optimising", replay=self._replay_progress())
+        result = self.replay.finish(self.estimator)
+        self.pose = result.poses[-1].copy()
+        self.estimator, self.mapping = FrozenMap(result.grid, self.pose), False
+        self.map_written = False
+        self._publish_map()
+        self._publish_state(self.replay.records[-1].scan, self.estimator.estimate())
+        self._event("replay_finished", replay=self._replay_progress(), loop_edges=result.loop_edges,
+                    paths=[str(p) for p in result.paths])
 
     @staticmethod
     def _dead_reckoned(estimate: Estimate, motion: np.ndarray) -> Estimate:
@@ -266,15 +327,16 @@ class Worker:
     def _exit(self) -> None:
         """Save the last map (PGM + YAML + PNG) and a final checkpoint; stop the grabbers."""
         with contextlib.suppress(Exception):
-            self.odometry_grabber.send_velocity(0.0, 0.0)
+            self.link.send_velocity(0.0, 0.0)
         s = self.settings
         grid = self.estimator.occupancy_map()
         if grid is not None and grid.data.size:
             paths = save_exit_map(grid, s.last_map_stem, np.array(self.trajectory).reshape(-1, 3))
-            save_checkpoint(s.checkpoint_dir, self._checkpoint())
+            if self.replay is None:
+                save_checkpoint(s.checkpoint_dir, self._checkpoint())
             self._event("saved", paths=[str(p) for p in paths])
-        self.odometry_grabber.stop()
-        self.scan_grabber.stop()
+        for source in self.sources:
+            source.stop()
         self.shm.close()
 
 

@@ -4,6 +4,7 @@ from fastapi import APIRouter, HTTPException, status
 
 from app.api.deps import RuntimeDep, StoreDep
 from app.api.models import ModeBody, ModeResponse, Status
+from app.api.replay_guard import NotReplaying
 from app.db.store import NotFound
 from app.runtime import Runtime
 from app.worker.estimators import available_modes
@@ -26,7 +27,7 @@ def read_mode(runtime: RuntimeDep) -> ModeResponse:
     return ModeResponse(mode=runtime.mode, mapping=runtime.mapping)
 
 
-@router.put("/mode", response_model=Status)
+@router.put("/mode", response_model=Status, dependencies=[NotReplaying])
 def update_mode(body: ModeBody, runtime: RuntimeDep, store: StoreDep) -> dict:
     """Switch mode; localization runs on a saved map (``map``) or on the current one."""
     yaml_path = None
@@ -40,7 +41,7 @@ def update_mode(body: ModeBody, runtime: RuntimeDep, store: StoreDep) -> dict:
     return runtime.status()
 
 
-@router.post("/mapping/start", response_model=Status)
+@router.post("/mapping/start", response_model=Status, dependencies=[NotReplaying])
 def create_mapping_start(runtime: RuntimeDep) -> dict:
     """Map again (mapping mode, the map grows from where it is)."""
     runtime.supervisor.send("mapping", True)
@@ -48,7 +49,7 @@ def create_mapping_start(runtime: RuntimeDep) -> dict:
     return runtime.status()
 
 
-@router.post("/mapping/stop", response_model=Status)
+@router.post("/mapping/stop", response_model=Status, dependencies=[NotReplaying])
 def create_mapping_stop(runtime: RuntimeDep) -> dict:
     """Freeze the map; the pose follows odometry until mapping or localization starts."""
     runtime.supervisor.send("mapping", False)

@@ -4,6 +4,7 @@ from fastapi import APIRouter, HTTPException, status
 
 from app.api.deps import RuntimeDep, StoreDep
 from app.api.models import GoalBody, GoalResponse, Ok, PathResponse, PoseBody, TeleopBody
+from app.api.replay_guard import NotReplaying
 from app.db.store import NotFound
 from app.navigation.navigator import Goal
 from app.navigation.planning import PlanningError
@@ -21,7 +22,8 @@ async def start_goal(runtime: Runtime, goal: Goal) -> dict:
                             {"reason": exc.reason, "message": str(exc)}) from None
 
 
-@router.post("/goal", response_model=GoalResponse, status_code=status.HTTP_202_ACCEPTED)
+@router.post("/goal", response_model=GoalResponse, status_code=status.HTTP_202_ACCEPTED,
+             dependencies=[NotReplaying])
 async def create_goal(body: GoalBody, runtime: RuntimeDep, store: StoreDep) -> dict:
     """Drive to ``{x, y}`` (metres, map frame) or to a named ``{place}``."""
     if body.place is not None:
@@ -47,7 +49,7 @@ def read_path(runtime: RuntimeDep) -> dict:
     return runtime.navigator.snapshot()
 
 
-@router.post("/pose", response_model=Ok)
+@router.post("/pose", response_model=Ok, dependencies=[NotReplaying])
 def create_pose(body: PoseBody, runtime: RuntimeDep) -> Ok:
     """Set the initial pose (re-initialises the estimator around it)."""
     if not runtime.supervisor.send("pose", body.x, body.y, body.yaw):
@@ -55,7 +57,7 @@ def create_pose(body: PoseBody, runtime: RuntimeDep) -> Ok:
     return Ok()
 
 
-@router.post("/teleop", response_model=Ok)
+@router.post("/teleop", response_model=Ok, dependencies=[NotReplaying])
 def create_teleop(body: TeleopBody, runtime: RuntimeDep) -> Ok:
     """Drive by hand: ``v`` m/s, ``w`` rad/s for half a second (send repeatedly); cancels a goal."""
     runtime.navigator.teleop(body.v, body.w)
