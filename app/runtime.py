@@ -129,6 +129,8 @@ class Runtime:
         self.events.append(event)
         if event["event"] in ("replay_optimising", "replay_finished"):
             self._on_replay_event(event)
+        if event["event"] == "loop_closed":
+            self.hub.publish("loop_closure", event)
         if event["event"] in ("started", "changed") and "mode" in event:
             self.mode = event["mode"]
             self.mapping = event.get("mapping", self.mapping)
@@ -260,6 +262,7 @@ class Runtime:
             "clients": len(self.hub.clients),
             "sim": self.settings.simulation,
             "replay": self.replay,
+            "loops": latest.get("loops") if latest else None,
             "true_pose": None if self.sim is None else [float(v) for v in self.sim.true_pose()],
             "events": list(self.events)[-5:],
             "time": time.time(),

@@ -142,6 +142,7 @@ class Status(BaseModel):
     clients: int
     sim: bool
     replay: dict | None = None
+    loops: dict | None = None
     true_pose: list[float] | None
     events: list[dict]
     time: float

@@ -37,12 +37,15 @@ from app.worker.estimators import (
     make_estimator,
     warm_up,
 )
+from app.worker.live_back_end import BackEndResult, LiveBackEnd
 from app.worker.pairing import NewestPairing, Pair, StampedPairing
 from app.worker.shared_map import SharedMap, grid_cells
 from slam_core.datasets import resolve_log
 from slam_core.estimator import Estimate
 from slam_core.geometry import compose, relative, transform_points
 from slam_core.io.ros_map import load_map
+from slam_core.occupancy_grid import OccupancyGrid
+from slam_core.pipelines.log_slam import best_updates
 from slam_core.sensors.wheel_odometry import ticks_to_increment, wrapped_delta
 
 log = logging.getLogger(__name__)
@@ -113,6 +116,8 @@ class Worker:
             self._event("error", detail=str(exc))
             self.mode = "mapping"
             self.estimator = make_estimator("mapping", s, checkpoint)
+        self.loop_closures = 0
+        self._attach_back_end(seeded=checkpoint.grid is not None)
         self.updated_at: np.ndarray | None = None  # re-anchored odometry at the estimator's last update
         self.ticks: tuple[int, int] | None = None  # encoder counts of the last step
         self.resume_ticks = checkpoint.ticks if checkpoint else None  # counts at the checkpoint pose
@@ -138,6 +143,13 @@ class Worker:
         self.anchor = (np.zeros(3), np.zeros(3))  # the log's odometry frame is the map frame, as offline
         return records[0].odom
 
+    def _attach_back_end(self, seeded: bool) -> None:
+        """The live back end of a particle filter that starts from an empty map (it needs every
+        scan of the map; a filter resumed on a checkpoint's map goes on alone)."""
+        self.back_end = None if seeded else LiveBackEnd.attached_to(self.estimator)
+        self.solved: BackEndResult | None = None
+        self.published_grid: OccupancyGrid | None = None  # optimised map + updates since
+
     # messages to the server
     def _event(self, event: str, **fields) -> None:
         put_newest(self.states, {"kind": "event", "event": event, "t": time.time(), **fields})
@@ -161,6 +173,8 @@ class Worker:
             "rate_hz": self.rate_hz,
             "landmarks": estimate.landmarks, "landmark_covariances": estimate.landmark_covariances,
             "replay": self._replay_progress(),
+            "loops": {"closures": self.loop_closures, "edges": self.solved.loop_edges if self.solved else 0,
+                      "solves": self.back_end.solves if self.back_end else 0},
         })
 
     def _replay_progress(self) -> dict | None:
@@ -182,6 +196,7 @@ class Worker:
         estimator = make_estimator(mode, self.settings, checkpoint)  # ModeUnavailable: keep the old one
         self.estimator, self.mode, self.mapping = estimator, mode, checkpoint.mapping
         self.pose, self.map_name = checkpoint.pose, checkpoint.map_name
+        self._attach_back_end(seeded=checkpoint.grid is not None)
         self.anchor = None
         self.updated_at = None
         self.map_written = False
@@ -231,6 +246,7 @@ class Worker:
                 pair = self.pairing.next(WAIT_S)
                 if pair is not None:
                     self._step(pair)
+                self._take_back_end()
                 if self._replay_played():
                     self._finish_replay()
                 now = time.monotonic()
@@ -268,6 +284,9 @@ class Worker:
         updated = self.estimator.step(odometry, scan)
         if updated or self.updated_at is None:
             self.updated_at = odometry
+        if updated and self.back_end is not None:
+            self.back_end.updated(self.estimator, scan)
+            self._draw_update(scan)
         if self.replay is not None:
             self.replay.stepped(pair.scan_seq - 1, updated, self.estimator.stats.updates - 1)
             self.feed.mark_stepped(pair.scan_seq - 1)
@@ -283,7 +302,38 @@ class Worker:
         self.last_step = now
         self.trajectory.append(self.pose.copy())
         del self.trajectory[:-TRAJECTORY_KEEP]
-        self._publish_state(scan, estimate)
+        self._publish_state(scan, self._corrected(estimate))
+
+    def _corrected(self, estimate: Estimate) -> Estimate:
+        """The filter's estimate in the map frame: the back end's correction composed with it."""
+        if self.solved is None:
+            return estimate
+        c = self.solved.correction
+        particles = None if estimate.particles is None else compose(c, estimate.particles)
+        return replace(estimate, pose=compose(c, estimate.pose), particles=particles)
+
+    def _take_back_end(self) -> None:
+        """Use a finished solve: its correction, and its map with the updates since drawn in."""
+        result = self.back_end.take() if self.back_end is not None else None
+        if result is None:
+            return
+        if result.loop_edges > (self.solved.loop_edges if self.solved else 0):
+            self.loop_closures += 1
+            self._event("loop_closed", closures=self.loop_closures, loop_edges=result.loop_edges,
+                        shift=[round(float(v), 4) for v in result.shift],
+                        correction=[round(float(v), 4) for v in result.correction])
+        self.solved = result
+        best = best_updates(self.estimator).poses
+        scans = self.back_end.scans
+        for k in range(len(result.poses), len(scans)):
+            result.grid.integrate(scans[k], compose(result.correction, best[k]))
+        self.published_grid = result.grid
+
+    def _draw_update(self, scan) -> None:
+        """Draw the filter's newest update into the published map, at its corrected pose."""
+        if self.published_grid is not None:
+            best = self.estimator.poses[self.estimator.best_index()]
+            self.published_grid.integrate(scan, compose(self.solved.correction, best))
 
     def _replay_played(self) -> bool:
         """Whether the whole log was played and every scan taken, with the back end still to run."""
@@ -294,7 +344,10 @@ class Worker:
         """The final optimisation: publish and write the optimised map and trajectory; mapping stops."""
         self.replay.phase = "optimising"
         self._event("replay_optimising", replay=self._replay_progress())
+        if self.back_end is not None:
+            self.back_end.wait()
         result = self.replay.finish(self.estimator)
+        self._attach_back_end(seeded=True)
         self.pose = result.poses[-1].copy()
         self.estimator, self.mapping = FrozenMap(result.grid, self.pose), False
         self.map_written = False
@@ -317,8 +370,11 @@ class Worker:
             particles = np.array([compose(p, motion) for p in particles])
         return replace(estimate, pose=compose(estimate.pose, motion), particles=particles)
 
+    def _published_map(self) -> OccupancyGrid | None:
+        return self.published_grid if self.published_grid is not None else self.estimator.occupancy_map()
+
     def _publish_map(self) -> None:
-        grid = self.estimator.occupancy_map()
+        grid = self._published_map()
         if grid is None or not grid.data.size:
             return
         self.shm.publish(grid_cells(grid), grid.origin, grid.resolution, force_full=not self.map_written)
@@ -329,7 +385,7 @@ class Worker:
         with contextlib.suppress(Exception):
             self.link.send_velocity(0.0, 0.0)
         s = self.settings
-        grid = self.estimator.occupancy_map()
+        grid = self._published_map()
         if grid is not None and grid.data.size:
             paths = save_exit_map(grid, s.last_map_stem, np.array(self.trajectory).reshape(-1, 3))
             if self.replay is None:
