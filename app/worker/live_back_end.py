@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from slam_core.geometry import compose, inverse, wrap_angle
+from slam_core.geometry import compose, inverse
 from slam_core.graph.loop_closure import close_loops
 from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.pipelines.log_slam import best_updates
@@ -41,12 +41,6 @@ class BackEndResult:
     loop_edges: int
     grid: OccupancyGrid
     seconds: float
-
-    @property
-    def shift(self) -> np.ndarray:
-        """How far the solve moved the newest solved update: ``(dx, dy, dtheta)`` in the map frame."""
-        d = self.poses[-1] - self.filter_poses[-1]
-        return np.array([d[0], d[1], wrap_angle(d[2])])
 
     @property
     def correction(self) -> np.ndarray:

@@ -42,7 +42,7 @@ from app.worker.pairing import NewestPairing, Pair, StampedPairing
 from app.worker.shared_map import SharedMap, grid_cells
 from slam_core.datasets import resolve_log
 from slam_core.estimator import Estimate
-from slam_core.geometry import compose, relative, transform_points
+from slam_core.geometry import compose, relative, transform_points, wrap_angle
 from slam_core.io.ros_map import load_map
 from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.pipelines.log_slam import best_updates
@@ -116,7 +116,7 @@ class Worker:
             self._event("error", detail=str(exc))
             self.mode = "mapping"
             self.estimator = make_estimator("mapping", s, checkpoint)
-        self.loop_closures = 0
+        self.loop_closures = self.loop_edges_seen = 0
         self._attach_back_end(seeded=checkpoint.grid is not None)
         self.updated_at: np.ndarray | None = None  # re-anchored odometry at the estimator's last update
         self.ticks: tuple[int, int] | None = None  # encoder counts of the last step
@@ -313,17 +313,21 @@ class Worker:
         return replace(estimate, pose=compose(c, estimate.pose), particles=particles)
 
     def _take_back_end(self) -> None:
-        """Use a finished solve: its correction, and its map with the updates since drawn in."""
+        """Use a finished solve: its correction, and its map with the updates since drawn in. A solve
+        that found more loop edges than any before is a loop closure (an event with the pose's jump)."""
         result = self.back_end.take() if self.back_end is not None else None
         if result is None:
             return
-        if result.loop_edges > (self.solved.loop_edges if self.solved else 0):
-            self.loop_closures += 1
-            self._event("loop_closed", closures=self.loop_closures, loop_edges=result.loop_edges,
-                        shift=[round(float(v), 4) for v in result.shift],
-                        correction=[round(float(v), 4) for v in result.correction])
-        self.solved = result
         best = best_updates(self.estimator).poses
+        if result.loop_edges > self.loop_edges_seen:
+            self.loop_edges_seen = result.loop_edges
+            self.loop_closures += 1
+            before = best[-1] if self.solved is None else compose(self.solved.correction, best[-1])
+            jump = compose(result.correction, best[-1]) - before
+            jump[2] = wrap_angle(jump[2])
+            self._event("loop_closed", closures=self.loop_closures, loop_edges=result.loop_edges,
+                        seq=self.steps, jump=[round(float(v), 4) for v in jump])
+        self.solved = result
         scans = self.back_end.scans
         for k in range(len(result.poses), len(scans)):
             result.grid.integrate(scans[k], compose(result.correction, best[k]))
