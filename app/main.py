@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from contextlib import asynccontextmanager
 from pathlib import Path
 
@@ -22,13 +23,14 @@ from app.smarthome import start_smart_home
 STATIC_DIR = Path(__file__).resolve().parent.parent / "static"
 
 
-def create_app(settings: Settings | None = None) -> FastAPI:
+def create_app(settings: Settings | None = None, stop_server: Callable[[], None] | None = None) -> FastAPI:
+    """The app; ``stop_server()`` ends the server gracefully (default: SIGTERM to this process)."""
     settings = settings or Settings()
     token, _ = load_or_create_token(settings.data_dir, settings.token)
 
     @asynccontextmanager
     async def lifespan(app: FastAPI):
-        runtime = Runtime(settings, token)
+        runtime = Runtime(settings, token, stop_server)
         app.state.runtime = runtime
         await runtime.start()
         bridge = await start_smart_home(runtime)

@@ -184,6 +184,8 @@ class Status(BaseModel):
     rates: dict
     clients: int
     sim: bool
+    replay: dict | None = None
+    loops: dict | None = None
     true_pose: list[float] | None
     events: list[dict]
     time: float

@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated, Literal
 
-from pydantic import Field, field_validator
+from pydantic import Field, field_validator, model_validator
 from pydantic_settings import BaseSettings, NoDecode, SettingsConfigDict
 
 Mode = Literal["mapping", "localization", "ekf"]
@@ -33,6 +33,14 @@ class Settings(BaseSettings):
     sensor_source: str | None = None
     mode: Mode = "mapping"
     seed: int = 0
+    #: Replay this CARMEN log (a bundled name or a path) through the live path instead of a robot.
+    replay: str | None = None
+    #: Speed-up over the log's own timing; ``None``: as fast as the worker steps, dropping no scan.
+    replay_speed: float | None = Field(1.0, gt=0.0)
+    #: Stop the server once the replay's final optimisation is written.
+    replay_exit_at_end: bool = False
+    #: The SLAM settings file ``homebot slam --config`` takes (an earlier run's ``config.json``).
+    slam_config: Path | None = None
 
     cors_origins: Annotated[list[str], NoDecode] = Field(default_factory=list)
     max_body_bytes: int = Field(64 * 1024, ge=1024)
@@ -98,6 +106,13 @@ class Settings(BaseSettings):
             raise ValueError(f"tile_size must be a power of two in 16..256, got {value}")
         return value
 
+    @model_validator(mode="after")
+    def _replay_is_not_simulated(self) -> Settings:
+        """A replayed log takes the place of the simulated robot too."""
+        if self.replay:
+            self.simulation = False
+        return self
+
     @property
     def db_path(self) -> Path:
         return self.data_dir / "homebot.sqlite3"
@@ -105,6 +120,10 @@ class Settings(BaseSettings):
     @property
     def maps_dir(self) -> Path:
         return self.data_dir / "maps"
+
+    @property
+    def replay_dir(self) -> Path:
+        return self.data_dir / "replay"
 
     @property
     def checkpoint_dir(self) -> Path:

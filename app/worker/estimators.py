@@ -7,7 +7,10 @@ checkpoint pose; the map frame is therefore continuous across worker restarts.
 
 from __future__ import annotations
 
+import dataclasses
+import json
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -56,11 +59,23 @@ class FrozenMap:
         return self.grid
 
 
+def slam_config(settings) -> RBPFConfig:
+    """The filter's settings: ``settings.slam_config`` (a ``config.json`` as ``homebot slam --config``
+    takes) or the defaults; a live robot (not a replay) keeps the server's particle count,
+    resolution and update thresholds."""
+    config = RBPFConfig()
+    if settings.slam_config is not None:
+        config = RBPFConfig.from_dict(json.loads(Path(settings.slam_config).read_text()))
+    if settings.replay:
+        return config
+    return dataclasses.replace(config, particles=settings.particles, resolution=settings.resolution,
+                               linear_update=settings.rbpf_linear_update,
+                               angular_update=settings.rbpf_angular_update)
+
+
 def _rbpf(settings, pose: np.ndarray, grid: OccupancyGrid | None, hit_sums: np.ndarray | None) -> RBPFSlam:
     """The RBPF SLAM, resumed on the checkpoint's map when there is one."""
-    config = RBPFConfig(particles=settings.particles, resolution=settings.resolution,
-                        linear_update=settings.rbpf_linear_update,
-                        angular_update=settings.rbpf_angular_update)
+    config = slam_config(settings)
     slam = RBPFSlam(config, seed=settings.seed, initial_pose=pose)
     if grid is not None and grid.data.size and abs(grid.resolution - settings.resolution) < 1e-12:
         slam.maps.seed_from_grid(grid, hit_sums)

@@ -74,30 +74,56 @@ def slam_from_log(log_path, config: RBPFConfig | None = None, seed: int = 0,
     if slam is None:
         raise ValueError(f"{log_path}: no laser records")
     filter_time = time.perf_counter() - started
-    updates, poses = slam.best_path()
-    update_poses = np.empty((slam.stats.updates, 3))
-    update_poses[updates] = poses
     update_of_scan = np.array(update_of_scan)
     is_update = np.array(is_update)
     odometry = np.array(odometry)
-    update_odometry = np.array(slam.update_odometry)
-    particle = Trajectory(stamps, per_scan_poses(update_of_scan, odometry, update_odometry, update_poses))
+    best = best_updates(slam)
+    particle = Trajectory(stamps, per_scan_poses(update_of_scan, odometry, best.odometry, best.poses))
     duration = float(np.max(times) - np.min(times))
     filtered = (slam.stats, slam.map_bytes(), slam.maps.tiles_in_use)
-    lc = config.loop_closure
-    if not lc.enabled:
+    if not config.loop_closure.enabled:
         return SlamRun(*filtered, particle, particle, slam.occupancy_map(), filter_time, filter_time,
                        duration, None, warnings, mount)
     del slam  # the particles' maps: the back end renders its own
+    final, grid, closed = close_filter_loops(config, best, update_of_scan, is_update, odometry, scans,
+                                             mount)
+    wall = time.perf_counter() - started
+    return SlamRun(*filtered, particle, Trajectory(stamps, final), grid, wall, filter_time, duration,
+                   closed, warnings, mount)
+
+
+@dataclass(frozen=True)
+class BestUpdates:
+    """The best particle's pose at every filter update and the odometry of those updates."""
+
+    poses: np.ndarray
+    odometry: np.ndarray
+
+
+def best_updates(slam: RBPFSlam) -> BestUpdates:
+    updates, poses = slam.best_path()
+    update_poses = np.empty((slam.stats.updates, 3))
+    update_poses[updates] = poses
+    return BestUpdates(update_poses, np.array(slam.update_odometry))
+
+
+def close_filter_loops(config: RBPFConfig, best: BestUpdates, update_of_scan: np.ndarray,
+                       is_update: np.ndarray, odometry: np.ndarray, scans: list,
+                       mount: LaserMount | None = None
+                       ) -> tuple[np.ndarray, OccupancyGrid, LoopClosureResult]:
+    """The back end after the filter: close the best particle's loops, give every scan a pose
+    (``update_of_scan``: each scan's last update; ``is_update``: the scans the filter updated
+    with) and render the map from the optimised poses of the updates (robot poses; the laser
+    sat at ``mount``)."""
+    mount = mount or LaserMount()
+    lc = config.loop_closure
     update_scans = [scans[k] for k in np.flatnonzero(is_update)]
-    closed, submaps = close_loops(update_poses, update_scans, lc, config.matcher, config.resolution,
+    closed, submaps = close_loops(best.poses, update_scans, lc, config.matcher, config.resolution,
                                   config.sensor, mount)
-    final = scan_poses(submaps, closed.poses, update_of_scan, odometry, update_odometry, scans, lc,
+    final = scan_poses(submaps, closed.poses, update_of_scan, odometry, best.odometry, scans, lc,
                        config.matcher, config.sensor, mount)
     del submaps
     grid = OccupancyGrid(config.resolution, model=config.sensor)
     for pose, scan in zip(mount.laser_poses(final[is_update]), update_scans, strict=True):
         grid.integrate(scan, pose)
-    wall = time.perf_counter() - started
-    return SlamRun(*filtered, particle, Trajectory(stamps, final), grid, wall, filter_time, duration,
-                   closed, warnings, mount)
+    return final, grid, closed

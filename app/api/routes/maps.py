@@ -55,10 +55,10 @@ async def create_map_load(runtime: RuntimeDep, store: StoreDep, response: Respon
                           name: MapNameParam) -> dict:
     """Localize on the saved map (switches to localization mode once its files check out)."""
     yaml_path = await checked_map_file(runtime, store, name)
-    status_now = await switch_mode(runtime, response, "localization", str(yaml_path), name)
+    answer = await switch_mode(runtime, response, "localization", str(yaml_path), name)
     await runtime.rooms.use_map(name)
     await asyncio.to_thread(runtime.zones.use_map, name)
-    return status_now
+    return answer
 
 
 @router.get("/{name:name}.png", response_class=Response, responses={200: {"content": {"image/png": {}}}})

@@ -14,6 +14,7 @@ from fastapi import APIRouter, Response, status
 from app.api.deps import RuntimeDep, StoreDep
 from app.api.errors import ApiError
 from app.api.models import ModeBody, ModeResponse, Status
+from app.api.replay_guard import NotReplaying
 from app.api.saved_maps import checked_map_file
 from app.runtime import Runtime
 from app.worker.estimators import available_modes
@@ -83,7 +84,7 @@ def read_mode(runtime: RuntimeDep) -> ModeResponse:
     return ModeResponse(mode=runtime.mode, mapping=runtime.mapping)
 
 
-@router.put("/mode", response_model=Status, responses={202: {"model": Status,
+@router.put("/mode", response_model=Status, dependencies=[NotReplaying], responses={202: {"model": Status,
                                                             "description": "the worker is still switching"}})
 async def update_mode(body: ModeBody, runtime: RuntimeDep, store: StoreDep, response: Response) -> dict:
     """Switch mode; localization runs on a saved map (``map``) or on the current one."""
@@ -93,14 +94,14 @@ async def update_mode(body: ModeBody, runtime: RuntimeDep, store: StoreDep, resp
     return await switch_mode(runtime, response, body.mode, yaml_path, body.map)
 
 
-@router.post("/mapping/start", response_model=Status,
+@router.post("/mapping/start", response_model=Status, dependencies=[NotReplaying],
              responses={202: {"model": Status, "description": "the worker is still switching"}})
 async def create_mapping_start(runtime: RuntimeDep, response: Response) -> dict:
     """Map again (mapping mode, the map grows from where it is)."""
     return await apply(runtime, response, "mapping", True)
 
 
-@router.post("/mapping/stop", response_model=Status,
+@router.post("/mapping/stop", response_model=Status, dependencies=[NotReplaying],
              responses={202: {"model": Status, "description": "the worker is still switching"}})
 async def create_mapping_stop(runtime: RuntimeDep, response: Response) -> dict:
     """Freeze the map; the pose follows odometry until mapping or localization starts."""

@@ -6,6 +6,7 @@ from app.api.bounds import require_in_map
 from app.api.deps import RuntimeDep, StoreDep
 from app.api.errors import ApiError
 from app.api.models import GoalBody, GoalResponse, Ok, PathResponse, PoseBody, TeleopBody
+from app.api.replay_guard import NotReplaying
 from app.db.store import NotFound
 from app.navigation.navigator import Goal
 from app.navigation.planning import PlanningError
@@ -33,7 +34,8 @@ def goal_for(body: GoalBody, store) -> Goal:
     return Goal(place.x, place.y, place.name, yaw=place.yaw, explore=body.explore)
 
 
-@router.post("/goal", response_model=GoalResponse, status_code=status.HTTP_202_ACCEPTED)
+@router.post("/goal", response_model=GoalResponse, status_code=status.HTTP_202_ACCEPTED,
+             dependencies=[NotReplaying])
 async def create_goal(body: GoalBody, runtime: RuntimeDep, store: StoreDep) -> dict:
     """Drive to ``{x, y[, yaw]}`` (metres, radians, map frame) or to a named ``{place}``.
 
@@ -57,7 +59,7 @@ def read_path(runtime: RuntimeDep) -> dict:
     return runtime.navigator.snapshot()
 
 
-@router.post("/pose", response_model=Ok)
+@router.post("/pose", response_model=Ok, dependencies=[NotReplaying])
 def create_pose(body: PoseBody, runtime: RuntimeDep) -> Ok:
     """Set the initial pose (re-initialises the estimator around it); it must lie near the map."""
     require_in_map(runtime, body.x, body.y, "pose")
@@ -67,7 +69,7 @@ def create_pose(body: PoseBody, runtime: RuntimeDep) -> Ok:
     return Ok()
 
 
-@router.post("/teleop", response_model=Ok)
+@router.post("/teleop", response_model=Ok, dependencies=[NotReplaying])
 def create_teleop(body: TeleopBody, runtime: RuntimeDep) -> Ok:
     """Drive by hand: ``v`` m/s, ``w`` rad/s for half a second (send repeatedly); cancels a goal."""
     runtime.navigator.teleop(body.v, body.w)
