@@ -38,7 +38,7 @@ from app.worker.estimators import (
     warm_up,
 )
 from app.worker.live_back_end import BackEndResult, LiveBackEnd
-from app.worker.pairing import NewestPairing, Pair, StampedPairing
+from app.worker.pairing import Pair, StampedPairing
 from app.worker.shared_map import SharedMap, grid_cells
 from slam_core.datasets import resolve_log
 from slam_core.estimator import Estimate
@@ -94,15 +94,15 @@ class Worker:
             initial_pose = self._open_replay(s.replay_dir)
             checkpoint = None  # a replay always starts afresh, and leaves the robot's checkpoint alone
         else:
-            self.odometry = Latest()
-            self.odometry_grabber = OdometryGrabber(spec.port, s.serial_baud, output=self.odometry)
+            history = OdometryHistory()
+            self.odometry_grabber = OdometryGrabber(spec.port, s.serial_baud, output=history)
             if scan_slot is not None:
                 self.scan_grabber = ScanGrabber(slot=scan_slot, output=self.scans)
             else:
                 self.scan_grabber = ScanGrabber(source=load_sensor_source(s.sensor_source), output=self.scans)
             self.link = self.odometry_grabber
             self.sources = [self.odometry_grabber, self.scan_grabber]
-            self.pairing = NewestPairing(self.odometry, self.scans)
+            self.pairing = StampedPairing(history, self.scans)
             initial_pose = spec.initial_pose
             checkpoint = load_checkpoint(s.checkpoint_dir)
         self.mode = checkpoint.mode if checkpoint else s.mode
