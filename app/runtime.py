@@ -19,13 +19,17 @@ from collections.abc import Callable
 import numpy as np
 
 from app.core.config import Settings
+from app.db.rooms import RoomStore
 from app.db.store import Store
+from app.db.zones import ZoneStore
 from app.navigation.navigator import Navigator
 from app.robot.simulator import SimHandles, start_simulator, wait_ready
+from app.rooms.service import RoomService
 from app.streaming import map_frames
 from app.streaming.hub import Hub
 from app.worker.shared_map import MapSnapshot
 from app.worker.supervisor import WorkerSupervisor
+from app.zones.service import ZoneService
 from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.sim.world import load_world
 
@@ -59,6 +63,9 @@ class Runtime:
         self.hub = Hub(self.full_map_frame, settings.client_send_timeout_s)
         tour = load_world(settings.world).tour if settings.simulation and settings.sim_tour else None
         self.navigator = Navigator(settings, self.current_grid, self.current_pose, self.send_velocity, tour)
+        self.rooms = RoomService(self.current_grid, RoomStore(settings.db_path))
+        self.zones = ZoneService(ZoneStore(settings.db_path))
+        self.navigator.restrictions = self.zones.restrictions
         self.sim: SimHandles | None = None
         self.supervisor: WorkerSupervisor | None = None
         self.latest: dict | None = None
@@ -93,7 +100,8 @@ class Runtime:
         self.supervisor.start()
         if ready is not None:
             await asyncio.to_thread(wait_ready, self.sim, ready)
-        for coro in (self._stream_ticker(), self._map_pump(), self._status_ticker(), self.navigator.run()):
+        for coro in (self._stream_ticker(), self._map_pump(), self._status_ticker(), self.navigator.run(),
+                     self.rooms.run()):
             self._tasks.append(asyncio.create_task(coro))
 
     async def stop(self) -> None:
@@ -244,12 +252,15 @@ class Runtime:
         health = self.supervisor.health.dict() if self.supervisor else {}
         health["steps"] = latest["steps"] if latest else 0
         health["rate_hz"] = round(latest["rate_hz"], 2) if latest else 0.0
+        health["state_t"] = latest["t"] if latest else None  # when the worker last published a pose
+        health["relocalizing"] = bool(latest.get("relocalizing")) if latest else False
         nav = self.navigator
         return {
             "mode": self.mode,
             "mapping": self.mapping,
             "pose": None if pose is None else dict(zip(("x", "y", "yaw"), map(float, pose), strict=True)),
             "localized": bool(latest["localized"]) if latest else False,
+            "room": None if pose is None else self.rooms.name_at(float(pose[0]), float(pose[1])),
             "worker": health,
             "map": None if snap is None else {"width": snap.width, "height": snap.height,
                                               "resolution": snap.resolution, "origin": list(snap.origin),

@@ -44,7 +44,7 @@ class Settings(BaseSettings):
 
     cors_origins: Annotated[list[str], NoDecode] = Field(default_factory=list)
     max_body_bytes: int = Field(64 * 1024, ge=1024)
-    token: str | None = Field(None, min_length=16)
+    token: str | None = Field(None, min_length=32)
 
     stream_hz: float = Field(15.0, ge=10.0, le=60.0)
     map_hz: float = Field(2.0, ge=1.0, le=10.0)
@@ -60,15 +60,27 @@ class Settings(BaseSettings):
     rbpf_angular_update: float = Field(0.2, gt=0.0)
     mcl_min_particles: int = Field(300, ge=10)
     mcl_max_particles: int = Field(3000, ge=10)
-    checkpoint_s: float = Field(5.0, gt=0.0)
+    checkpoint_s: float = Field(1.0, gt=0.0)
     worker_restart_delay_s: float = Field(0.5, ge=0.0)
 
     control_hz: float = Field(10.0, ge=1.0, le=100.0)
     replan_s: float = Field(2.0, gt=0.0)
-    goal_tolerance: float = Field(0.25, gt=0.0)
+    goal_tolerance: float = Field(0.08, gt=0.0, le=1.0)
     max_speed: float = Field(0.4, gt=0.0)
     max_turn_rate: float = Field(1.2, gt=0.0)
     teleop_hold_s: float = Field(0.5, gt=0.0)
+
+    #: MQTT and Home Assistant discovery (``app/smarthome``): off unless ``mqtt_host`` is set.
+    mqtt_host: str | None = None
+    mqtt_port: int = Field(1883, ge=1, le=65535)
+    mqtt_tls: bool = False
+    mqtt_ca_file: Path | None = None
+    mqtt_username: str | None = None
+    mqtt_password: str | None = None
+    mqtt_prefix: str = Field("homebot", pattern=r"^[A-Za-z0-9_\-/]+$")
+    mqtt_client_id: str = Field("homebot", min_length=1, max_length=64)
+    mqtt_discovery_prefix: str = Field("homeassistant", pattern=r"^[A-Za-z0-9_\-/]+$")
+    mqtt_map_interval_s: float = Field(5.0, ge=1.0)
 
     @field_validator("cors_origins", mode="before")
     @classmethod

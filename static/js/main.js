@@ -7,6 +7,7 @@ import { decodeMapFrame } from "./mapframe.js";
 import { Panels } from "./panels.js";
 import { PointerControl } from "./pointer.js";
 import { Renderer } from "./renderer.js";
+import { RoomsAndZones } from "./rooms.js";
 import { State } from "./state.js";
 import { StatusBar } from "./statusbar.js";
 import { Teleop } from "./teleop.js";
@@ -19,6 +20,8 @@ const HINTS = {
   pan: "Drag to move the map; wheel or pinch to zoom.",
   pose: "Set pose: click where the robot is, drag to show where it faces.",
   place: "Click the map where the new place is (drag to give it a heading).",
+  zone: "No-go zone: click its corners on the map, then Finish (Esc cancels).",
+  wall: "Virtual wall: click both ends on the map (Esc cancels).",
 };
 
 const $ = (id) => document.getElementById(id);
@@ -52,6 +55,15 @@ class Dashboard {
       fail: (error) => this.fail(error),
       onPickPlace: () => this.setTool("place"),
     });
+
+    this.roomsZones = new RoomsAndZones({
+      api: this.api,
+      notify: (message) => this.toast(message),
+      fail: (error) => this.fail(error),
+      redraw: () => this.renderer.invalidate(),
+      setTool: (tool) => this.setTool(tool),
+    });
+    this.renderer.overlays.push(this.roomsZones);
 
     this.pointer = new PointerControl(this.canvas, this.view, {
       getTool: () => this.tool,
@@ -123,6 +135,7 @@ class Dashboard {
     });
     window.addEventListener("keydown", (e) => {
       if (e.key === "Escape") {
+        if (this.roomsZones.draft) this.roomsZones.cancel();
         this.setTool("goal");
         this.pointer.cancelPick();
       }
@@ -188,6 +201,7 @@ class Dashboard {
     this.state.map.clear();
     this.connection.start();
     this.refreshLists();
+    this.roomsZones.start();
     clearInterval(this.pollTimer);
     this.pollTimer = setInterval(() => this.pollStatus(), STATUS_POLL_MS);
     this.stateChanged("status");
@@ -267,6 +281,8 @@ class Dashboard {
         await this.api.setPose(x, y, heading);
         this.toast("Pose set: localization restarts around it");
         this.setTool("goal");
+      } else if (tool === "zone" || tool === "wall") {
+        this.roomsZones.addPoint(x, y);
       } else if (tool === "place") {
         const name = this.panels.placeNameOrComplain();
         if (name) await this.panels.addPlace(name, x, y, yaw ?? 0);

@@ -32,6 +32,7 @@ export class Renderer {
     this.viewChanged = true;
     this.frames = 0;
     this.layers = { scan: true, particles: true, path: true, landmarks: true, places: true };
+    this.overlays = []; // objects with drawWorld(ctx) (map transform) and drawScreen(ctx, view) (pixels)
   }
 
   showLayer(name, visible) {
@@ -76,8 +77,10 @@ export class Renderer {
     this.drawGrid(); // under the map: it shows only where there is no map
     ctx.setTransform(...view.matrix(dpr));
     state.map.draw(ctx);
+    for (const overlay of this.overlays) overlay.drawWorld(ctx);
 
     ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
+    for (const overlay of this.overlays) overlay.drawScreen(ctx, view);
     const layers = this.layers;
     if (layers.landmarks) this.drawLandmarks();
     if (layers.scan) this.drawScan();

@@ -1,0 +1,112 @@
+"""The room service: segments the live map every few seconds (in a thread) when it changed.
+
+It keeps the current :class:`~slam_core.rooms.layout.RoomLayout` (ids, names and edits that
+last as the map grows), stores it per map (:class:`~app.db.rooms.RoomStore`), answers which
+room a point is in, and where to drive to reach a room.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+from collections.abc import Callable
+
+import numpy as np
+
+from app.db.rooms import LIVE, RoomStore
+from slam_core.distance_transform import distance_to_features
+from slam_core.occupancy_grid import OccupancyGrid
+from slam_core.rooms import segment_rooms
+from slam_core.rooms.layout import RoomEditError, RoomLayout, follow
+
+log = logging.getLogger(__name__)
+
+REFRESH_S = 5.0
+
+
+class RoomService:
+    """The rooms of the map in use (the live one, or a saved one being localized in)."""
+
+    def __init__(self, grid: Callable[[], OccupancyGrid | None], store: RoomStore):
+        self._grid = grid
+        self.store = store
+        self.key = LIVE
+        self.layout: RoomLayout | None = store.load(LIVE)
+        self._segmented: OccupancyGrid | None = None
+        self._lock = asyncio.Lock()
+
+    async def run(self) -> None:
+        """Refresh until cancelled."""
+        while True:
+            try:
+                await self.refresh()
+            except Exception:  # a segmentation bug must not stop the server; try again later
+                log.exception("room segmentation failed")
+            await asyncio.sleep(REFRESH_S)
+
+    async def refresh(self) -> None:
+        """Segment the current map if it changed since the last time."""
+        grid = self._grid()
+        if grid is None or grid is self._segmented:
+            return
+        async with self._lock:
+            previous = self.layout
+            self.layout = await asyncio.to_thread(lambda: follow(previous, segment_rooms(grid), grid))
+            self._segmented = grid
+            await asyncio.to_thread(self.store.save, self.key, self.layout)
+
+    async def edit(self, change: Callable[[RoomLayout], RoomLayout]) -> RoomLayout:
+        """Apply one edit (rename, merge, split) and store it; ``RoomEditError`` when impossible."""
+        async with self._lock:
+            if self.layout is None:
+                raise RoomEditError("there are no rooms yet: the map is still empty")
+            self.layout = change(self.layout)
+            await asyncio.to_thread(self.store.save, self.key, self.layout)
+            return self.layout
+
+    async def use_map(self, name: str) -> None:
+        """Rooms of the saved map ``name`` from now on (stored with it when it was saved)."""
+        async with self._lock:
+            self.key = name
+            self.layout = await asyncio.to_thread(self.store.load, name)
+            self._segmented = None
+
+    async def save_as(self, name: str) -> None:
+        """Store the current rooms with a map just saved as ``name``."""
+        if self.layout is not None:
+            await asyncio.to_thread(self.store.save, name, self.layout)
+
+    # reading
+    def rooms(self) -> list[dict]:
+        layout = self.layout
+        return [] if layout is None else [layout.summary(r) for r in layout.ids()]
+
+    def name_at(self, x: float, y: float) -> str | None:
+        layout = self.layout
+        room = None if layout is None else layout.room_at(x, y)
+        return None if room is None else layout.name(room)
+
+    def find(self, name: str) -> int:
+        """The id of a room by name; ``KeyError`` (the reason) when there is none."""
+        if self.layout is None:
+            raise KeyError(f"no room named {name!r}: there are no rooms yet")
+        return self.layout.find(name)
+
+    def target(self, room: int) -> tuple[float, float]:
+        """Where to drive to reach ``room``; ``KeyError`` when there is no such room."""
+        layout = self.layout
+        if layout is None or room not in layout.ids():
+            raise KeyError(f"no room with id {room}")
+        return room_centre(layout, room)
+
+
+def room_centre(layout: RoomLayout, room: int) -> tuple[float, float]:
+    """The point of ``room`` farthest from its borders: inside it, clear of walls and doorways."""
+    iy, ix = np.nonzero(layout.labels == room)
+    y0, y1, x0, x1 = iy.min(), iy.max() + 1, ix.min(), ix.max() + 1
+    inside = np.pad(layout.labels[y0:y1, x0:x1] == room, 1)
+    depth = distance_to_features(~inside)
+    cy, cx = np.unravel_index(int(np.argmax(depth)), depth.shape)
+    res = layout.resolution
+    return (float(layout.origin[0] + (x0 + cx - 1 + 0.5) * res),
+            float(layout.origin[1] + (y0 + cy - 1 + 0.5) * res))

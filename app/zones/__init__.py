@@ -1,0 +1,1 @@
+"""No-go zones and virtual walls of the map in use, for the planner, the API and MQTT."""

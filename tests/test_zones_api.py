@@ -1,0 +1,103 @@
+"""No-go zones and virtual walls over REST on a real server (simulated flat): goals inside a zone
+are refused, plans keep out, a robot inside a zone leaves it, bad shapes are refused, and the
+zones are stored with a saved map."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pytest
+
+from app.db.zones import ZoneStore
+from slam_core.planning.zones import NoGoZone
+from tests.live_server import LiveServer
+
+
+def _wait(condition, timeout: float, what: str):
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if value := condition():
+            return value
+        time.sleep(0.3)
+    raise AssertionError(f"timed out waiting for {what}")
+
+
+@pytest.fixture(scope="module")
+def data_dir(tmp_path_factory):
+    return tmp_path_factory.mktemp("homebot-zones")
+
+
+@pytest.fixture(scope="module")
+def server(data_dir):
+    srv = LiveServer(data_dir).start()
+    yield srv
+    srv.stop()
+
+
+def _arrive(http) -> None:
+    _wait(lambda: http.get("/api/path").json()["state"] in ("arrived", "failed"), 60, "the end of the drive")
+
+
+def test_a_zone_refuses_goals_inside_and_plans_keep_out(server):
+    blocker = [[1.6, 3.0], [2.0, 3.0], [2.0, 4.5], [1.6, 4.5]]  # across the hall, east of the robot
+    with server.client() as http:
+        added = http.post("/api/zones", json={"kind": "zone", "points": blocker})
+        assert added.status_code == 201, added.text
+        inside = http.post("/api/goal", json={"x": 1.8, "y": 3.75})
+        assert inside.status_code == 422 and inside.json()["reason"] == "goal_in_no_go_zone"
+        beyond = http.post("/api/goal", json={"x": 2.4, "y": 3.75})
+        if beyond.status_code == 202:  # a way around (through a door) is allowed, through the zone is not
+            path = np.array(beyond.json()["path"])
+            assert not NoGoZone(tuple(map(tuple, blocker))).contains(path).any()
+            http.delete("/api/goal")
+        else:
+            assert beyond.status_code == 422 and beyond.json()["reason"] != "goal_in_no_go_zone"
+        assert http.delete(f"/api/zones/{added.json()['id']}").status_code == 204
+        free = http.post("/api/goal", json={"x": 2.4, "y": 3.75})
+        assert free.status_code == 202, free.text
+        _arrive(http)
+    assert server.status()["true_pose"][0] > 2.0
+
+
+def test_a_robot_carried_into_a_zone_leaves_it_by_the_nearest_way(server):
+    x, y = server.status()["true_pose"][:2]
+    around = [[x - 0.3, y - 0.5], [x + 0.6, y - 0.5], [x + 0.6, y + 0.5], [x - 0.3, y + 0.5]]
+    with server.client() as http:
+        added = http.post("/api/zones", json={"kind": "zone", "points": around})
+        assert added.status_code == 201
+        go = http.post("/api/goal", json={"x": x - 1.2, "y": 3.75})
+        assert go.status_code == 202, go.text
+        path = np.array(go.json()["path"])
+        # Out through the west side (0.3 m away, the nearest), not the east side (0.6 m).
+        assert path[1][0] < x - 0.3 and not NoGoZone(tuple(map(tuple, around))).contains(path[2:]).any()
+        _arrive(http)
+        true = server.status()["true_pose"]
+        assert not NoGoZone(tuple(map(tuple, around))).contains(np.array(true[:2]))
+        assert http.delete(f"/api/zones/{added.json()['id']}").status_code == 204
+
+
+@pytest.mark.parametrize(("body", "text"), [
+    ({"kind": "circle", "points": [[0, 0], [1, 1]]}, "zone"),
+    ({"kind": "zone", "points": [[0, 0], [1, 1]]}, "3 to"),
+    ({"kind": "zone", "points": [[0, 0], [1, 1], [2, 2]]}, "enclose an area"),
+    ({"kind": "wall", "points": [[0, 0], [1, 1], [2, 0]]}, "exactly 2 points"),
+    ({"kind": "wall", "points": [[0, 0], [0, 0]]}, "distinct"),
+    ({"kind": "wall", "points": [[0, 0], [1]]}, "at least 2"),
+    ({"kind": "wall", "points": [[0, 0], [1, 1]], "colour": "red"}, "extra"),
+])
+def test_bad_zones_are_refused_with_a_reason(server, body, text):
+    with server.client() as http:
+        answer = http.post("/api/zones", json=body)
+        assert answer.status_code == 422 and text.lower() in answer.text.lower(), answer.text
+        assert http.delete("/api/zones/4242").status_code == 404
+
+
+def test_zones_are_stored_with_a_saved_map(server, data_dir):
+    with server.client() as http:
+        wall = http.post("/api/zones", json={"kind": "wall", "points": [[0.5, 3.0], [0.5, 4.5]]})
+        assert wall.status_code == 201
+        assert http.post("/api/maps", json={"name": "with-zones"}).status_code == 201
+        assert [z["kind"] for z in http.get("/api/zones").json()] == ["wall"]
+    saved = ZoneStore(data_dir / "homebot.sqlite3").list("with-zones")
+    assert [(z.kind, z.points) for z in saved] == [("wall", [[0.5, 3.0], [0.5, 4.5]])]
