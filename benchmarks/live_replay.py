@@ -37,7 +37,7 @@ sys.path.insert(0, str(ROOT))
 from slam_core.datasets import BUNDLED, resolve_relations  # noqa: E402
 from slam_core.evaluation import evaluate_files  # noqa: E402
 
-TOKEN = "live-replay-benchmark-token"
+TOKEN = "live-replay-benchmark-token-0123456"
 WINDOW_S = 5.0
 CONNECT_TIMEOUT_S = 300.0
 

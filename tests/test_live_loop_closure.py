@@ -33,7 +33,7 @@ from slam_core.sim.simulator import SimConfig
 from slam_core.sim.world import load_world
 from tests.live_server import ROOT, START_TIMEOUT_S, free_port
 
-TOKEN = "loop-closure-test-token-0123456789abcdef"
+TOKEN = "loop-closure-test-token-0123-abcdefgh"
 #: The map is looked at again this long after a closure (the map pump runs at >= 1 Hz).
 SETTLE_S = 1.5
 OCCUPIED = 65

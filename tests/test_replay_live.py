@@ -32,7 +32,7 @@ from tests.bundled import log_slice
 from tests.live_server import ROOT, START_TIMEOUT_S, free_port
 
 SCANS = 250
-TOKEN = "replay-test-token-0123456789abcdefghij"
+TOKEN = "replay-test-token-0123456789-abcdef"
 RUN_TIMEOUT_S = 600.0
 
 

@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import serial
 
+from app.grabbers.odometry_history import OdometryHistory
 from app.grabbers.shared import Latest
 from app.robot_link.protocol import (
     SEQ_MODULUS,
@@ -74,8 +75,9 @@ class OdometryGrabberStats:
 class OdometryGrabber:
     """Reads wheel encoders over a serial line in a thread; see the module docstring.
 
-    ``output`` is the :class:`Latest` to publish into (a new one by default, available
-    as :attr:`odometry`); ``clock`` stamps readings on arrival (default ``time.time``).
+    ``output`` is the :class:`Latest` (or :class:`~app.grabbers.odometry_history.OdometryHistory`)
+    to publish into (a new ``Latest`` by default, available as :attr:`odometry`); ``clock``
+    stamps readings on arrival (default ``time.time``).
     """
 
     def __init__(
@@ -84,7 +86,7 @@ class OdometryGrabber:
         baudrate: int = DEFAULT_BAUDRATE,
         geometry: DiffDriveGeometry | None = None,
         max_wheel_speed: float = DEFAULT_MAX_WHEEL_SPEED,
-        output: Latest[Odometry] | None = None,
+        output: Latest[Odometry] | OdometryHistory | None = None,
         clock=time.time,
         read_timeout: float = READ_TIMEOUT,
         reconnect_delay: float = RECONNECT_DELAY,
@@ -92,7 +94,7 @@ class OdometryGrabber:
         self.port = port
         self.baudrate = baudrate
         self.geometry = geometry or DiffDriveGeometry()
-        self.odometry: Latest[Odometry] = output if output is not None else Latest()
+        self.odometry = output if output is not None else Latest()
         self.integrator = OdometryIntegrator(self.geometry, max_wheel_speed)
         self.decoder = FrameDecoder(accept={TYPE_ENCODER})
         self._clock = clock

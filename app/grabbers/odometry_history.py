@@ -48,6 +48,11 @@ class OdometryHistory:
             if len(self._stamps) > self._length:
                 del self._stamps[0], self._readings[0]
 
+    def covers(self, stamp: float) -> bool:
+        """Whether a reading at or after ``stamp`` arrived (so :meth:`at` interpolates, not holds)."""
+        with self._lock:
+            return bool(self._stamps) and self._stamps[-1] >= stamp
+
     def at(self, stamp: float) -> Stamped | None:
         """The reading at ``stamp``: the newest one with exactly that stamp, else the two around
         it interpolated (a copy with ``stamp``); the newest (oldest) reading for a stamp after

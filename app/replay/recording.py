@@ -100,13 +100,15 @@ class ReplayRecording:
         particle = per_scan_poses(update_of_scan, odometry, best.odometry, best.poses)
         closed = None
         if config.loop_closure.enabled:
-            poses, grid, closed = close_filter_loops(config, best, update_of_scan, self._is_update, odometry,
-                                                     [r.scan for r in self.records])
+            scans = [r.scan for r in self.records]
+            poses, grid, closed = close_filter_loops(config, slam.mount, best, update_of_scan,
+                                                     self._is_update, odometry, scans)
         else:
             poses, grid = particle, slam.occupancy_map()
         stats = {
             "log": str(self.log_path), "seed": self.seed, "speed": self.speed or "max",
             "records": len(self.records), "stepped": self._stepped,
+            "laser_mount": list(slam.mount.as_tuple()),
             "dropped": len(self.records) - self._stepped,
             "filter_time_s": round(filter_time, 3),
             "wall_time_s": round(time.monotonic() - self.started, 3),

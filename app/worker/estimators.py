@@ -15,8 +15,10 @@ from pathlib import Path
 import numpy as np
 
 from app.worker.relocalize import Relocalizer
+from slam_core.datasets import resolve_log
 from slam_core.ekf.ekf_slam import EkfConfig, EkfSlam
 from slam_core.estimator import Estimate
+from slam_core.io.carmen import laser_mount_of
 from slam_core.localization.mcl import MclConfig, MonteCarloLocalizer
 from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.rbpf.config import RBPFConfig
@@ -59,6 +61,12 @@ class FrozenMap:
         return self.grid
 
 
+def laser_mount(settings) -> np.ndarray | None:
+    """Where the laser sits on the robot: a replayed log's own mount (from its laser and odometry
+    poses), else at the robot's centre (``None``)."""
+    return laser_mount_of(resolve_log(settings.replay)) if settings.replay else None
+
+
 def slam_config(settings) -> RBPFConfig:
     """The filter's settings: ``settings.slam_config`` (a ``config.json`` as ``homebot slam --config``
     takes) or the defaults; a live robot (not a replay) keeps the server's particle count,
@@ -76,7 +84,7 @@ def slam_config(settings) -> RBPFConfig:
 def _rbpf(settings, pose: np.ndarray, grid: OccupancyGrid | None, hit_sums: np.ndarray | None) -> RBPFSlam:
     """The RBPF SLAM, resumed on the checkpoint's map when there is one."""
     config = slam_config(settings)
-    slam = RBPFSlam(config, seed=settings.seed, initial_pose=pose)
+    slam = RBPFSlam(config, seed=settings.seed, initial_pose=pose, laser_mount=laser_mount(settings))
     if grid is not None and grid.data.size and abs(grid.resolution - settings.resolution) < 1e-12:
         slam.maps.seed_from_grid(grid, hit_sums)
     return slam

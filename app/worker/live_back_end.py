@@ -28,13 +28,14 @@ from slam_core.graph.loop_closure import close_loops
 from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.pipelines.log_slam import best_updates
 from slam_core.rbpf import RBPFConfig, RBPFSlam
+from slam_core.rbpf.laser_mount import LaserMount
 from slam_core.scan import Scan
 
 
 @dataclass(frozen=True)
 class BackEndResult:
-    """One solve: the optimised pose of each of the first ``len(poses)`` updates, the filter's
-    poses it started from, the loop edges kept and the map rendered from the optimised poses."""
+    """One solve: the optimised (robot) pose of each of the first ``len(poses)`` updates, the
+    filter's poses it started from, the loop edges kept and the map rendered from the optimised poses."""
 
     poses: np.ndarray
     filter_poses: np.ndarray
@@ -48,9 +49,10 @@ class BackEndResult:
         return compose(self.poses[-1], inverse(self.filter_poses[-1]))
 
 
-def render(config: RBPFConfig, poses: np.ndarray, scans: list[Scan]) -> OccupancyGrid:
+def render(config: RBPFConfig, mount: LaserMount, poses: np.ndarray, scans: list[Scan]) -> OccupancyGrid:
+    """The map of ``scans`` taken from robot ``poses`` by a laser at ``mount``."""
     grid = OccupancyGrid(config.resolution, model=config.sensor)
-    for pose, scan in zip(poses, scans, strict=True):
+    for pose, scan in zip(mount.laser_poses(poses), scans, strict=True):
         grid.integrate(scan, pose)
     return grid
 
@@ -58,8 +60,9 @@ def render(config: RBPFConfig, poses: np.ndarray, scans: list[Scan]) -> Occupanc
 class LiveBackEnd:
     """Feed :meth:`updated` after every filter update; read finished solves with :meth:`take`."""
 
-    def __init__(self, config: RBPFConfig):
+    def __init__(self, config: RBPFConfig, mount: LaserMount):
         self.config = config
+        self.mount = mount
         self.scans: list[Scan] = []  # the scan of every filter update
         self.solves = 0
         self._thread: threading.Thread | None = None
@@ -70,7 +73,7 @@ class LiveBackEnd:
     def attached_to(cls, estimator) -> LiveBackEnd | None:
         """A back end for a particle filter that closes loops; ``None`` for any other estimator."""
         if isinstance(estimator, RBPFSlam) and estimator.config.loop_closure.enabled:
-            return cls(estimator.config)
+            return cls(estimator.config, estimator.mount)
         return None
 
     @property
@@ -90,8 +93,8 @@ class LiveBackEnd:
     def _solve(self, poses: np.ndarray, scans: list[Scan]) -> None:
         started = time.perf_counter()
         c = self.config
-        closed, _ = close_loops(poses, scans, c.loop_closure, c.matcher, c.resolution, c.sensor)
-        grid = render(c, closed.poses, scans)
+        closed, _ = close_loops(poses, scans, c.loop_closure, c.matcher, c.resolution, c.sensor, self.mount)
+        grid = render(c, self.mount, closed.poses, scans)
         result = BackEndResult(closed.poses, poses, closed.loop_edges, grid, time.perf_counter() - started)
         with self._lock:
             self._done = result

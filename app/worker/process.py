@@ -1,9 +1,11 @@
 """The SLAM worker process: synchronised estimator steps, published state, map and checkpoints.
 
-Scans are paired with odometry by :mod:`app.worker.pairing`. With ``settings.replay``
-a CARMEN log takes the robot's place (:mod:`app.replay`). After each step the pose,
-particle cloud and scan go to the server on a small queue; the map goes into shared
-memory at ``map_hz``, with per-tile change stamps (:mod:`app.worker.shared_map`), so the map is never pickled.
+Each new scan is stepped once, with the odometry at its own stamp (:mod:`app.worker.pairing`);
+with ``settings.replay`` a CARMEN log takes the robot's place (:mod:`app.replay`). A mapping
+filter has the loop-closing back end beside it (:mod:`app.worker.live_back_end`). After each
+step the pose, particle cloud and scan go to the server on a small queue; the map goes into
+shared memory at ``map_hz``, with per-tile change stamps (:mod:`app.worker.shared_map`), so
+the map is never pickled.
 """
 
 from __future__ import annotations
@@ -42,7 +44,7 @@ from app.worker.lifeline import bind_to_parent
 from app.worker.live_back_end import BackEndResult, LiveBackEnd
 from app.worker.lockfile import acquire_worker_lock
 from app.worker.map_limits import check_room, map_box, scan_reach
-from app.worker.pairing import NewestPairing, Pair, StampedPairing
+from app.worker.pairing import Pair, StampedPairing
 from app.worker.relocalize import Relocalizer
 from app.worker.shared_map import MapTooLarge, SharedMap, grid_cells
 from slam_core.datasets import resolve_log
@@ -99,26 +101,26 @@ class Worker:
         self.scans = Latest()
         self.replay: ReplayRecording | None = None
         self.anchor: tuple[np.ndarray, np.ndarray] | None = None
-        self.generation = 0
         if s.replay:
             initial_pose = self._open_replay(s.replay_dir)
-            checkpoint = None  # a replay always starts afresh, and leaves the robot's checkpoint alone
+            # a replay starts afresh and leaves the robot's checkpoints alone
+            checkpoint, self.generation = None, 0
         else:
-            self.odometry = Latest()
-            self.odometry_grabber = OdometryGrabber(spec.port, s.serial_baud, output=self.odometry)
+            history = OdometryHistory()
+            self.odometry_grabber = OdometryGrabber(spec.port, s.serial_baud, output=history)
             if scan_slot is not None:
                 self.scan_grabber = ScanGrabber(slot=scan_slot, output=self.scans)
             else:
                 self.scan_grabber = ScanGrabber(source=load_sensor_source(s.sensor_source), output=self.scans)
             self.link = self.odometry_grabber
             self.sources = [self.odometry_grabber, self.scan_grabber]
-            self.pairing = NewestPairing(self.odometry, self.scans)
+            self.pairing = StampedPairing(history, self.scans)
             initial_pose = spec.initial_pose
             restored = load_checkpoint(s.checkpoint_dir, s.map_capacity_cells)
             for path, reason in restored.quarantined:
                 self._event("checkpoint_quarantined", path=str(path), detail=reason)
             checkpoint, self.generation = restored.checkpoint, restored.generation
-        restored_map = checkpoint is not None
+        was_restored = checkpoint is not None
         self.mode = checkpoint.mode if checkpoint else s.mode
         self.mapping = checkpoint.mapping if checkpoint else True
         self.map_name = checkpoint.map_name if checkpoint else None
@@ -144,7 +146,7 @@ class Worker:
         self.kept_grid, self.kept_hits = checkpoint.grid, checkpoint.hit_sums
         self.map_changed = False  # since the last snapshot
         # A restored map: find the robot in it before anything is written (app.worker.relocalize).
-        self.relocalizer = self._relocalizer() if restored_map else None
+        self.relocalizer = self._relocalizer() if was_restored else None
         self.relocalizing_from: tuple[np.ndarray, np.ndarray] | None = None  # (odometry, pose) at the start
 
     def _open_replay(self, replay_dir: Path) -> np.ndarray:
@@ -417,15 +419,16 @@ class Worker:
                         seq=self.steps, jump=[round(float(v), 4) for v in jump])
         self.solved = result
         scans = self.back_end.scans
+        mount = self.estimator.mount
         for k in range(len(result.poses), len(scans)):
-            result.grid.integrate(scans[k], compose(result.correction, best[k]))
+            result.grid.integrate(scans[k], mount.laser_poses(compose(result.correction, best[k])))
         self.published_grid = result.grid
 
     def _draw_update(self, scan) -> None:
         """Draw the filter's newest update into the published map, at its corrected pose."""
         if self.published_grid is not None:
-            best = self.estimator.poses[self.estimator.best_index()]
-            self.published_grid.integrate(scan, compose(self.solved.correction, best))
+            laser = self.estimator.poses[self.estimator.best_index()]  # the filter's poses are the laser's
+            self.published_grid.integrate(scan, compose(self.solved.correction, laser))
 
     def _replay_played(self) -> bool:
         """Whether the whole log was played and every scan taken, with the back end still to run."""

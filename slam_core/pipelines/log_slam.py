@@ -85,8 +85,7 @@ def slam_from_log(log_path, config: RBPFConfig | None = None, seed: int = 0,
         return SlamRun(*filtered, particle, particle, slam.occupancy_map(), filter_time, filter_time,
                        duration, None, warnings, mount)
     del slam  # the particles' maps: the back end renders its own
-    final, grid, closed = close_filter_loops(config, best, update_of_scan, is_update, odometry, scans,
-                                             mount)
+    final, grid, closed = close_filter_loops(config, mount, best, update_of_scan, is_update, odometry, scans)
     wall = time.perf_counter() - started
     return SlamRun(*filtered, particle, Trajectory(stamps, final), grid, wall, filter_time, duration,
                    closed, warnings, mount)
@@ -107,15 +106,12 @@ def best_updates(slam: RBPFSlam) -> BestUpdates:
     return BestUpdates(update_poses, np.array(slam.update_odometry))
 
 
-def close_filter_loops(config: RBPFConfig, best: BestUpdates, update_of_scan: np.ndarray,
-                       is_update: np.ndarray, odometry: np.ndarray, scans: list,
-                       mount: LaserMount | None = None
-                       ) -> tuple[np.ndarray, OccupancyGrid, LoopClosureResult]:
-    """The back end after the filter: close the best particle's loops, give every scan a pose
+def close_filter_loops(config: RBPFConfig, mount: LaserMount, best: BestUpdates, update_of_scan: np.ndarray,
+                       is_update: np.ndarray, odometry: np.ndarray,
+                       scans: list) -> tuple[np.ndarray, OccupancyGrid, LoopClosureResult]:
+    """The back end after the filter: close the best particle's loops, give every scan a robot pose
     (``update_of_scan``: each scan's last update; ``is_update``: the scans the filter updated
-    with) and render the map from the optimised poses of the updates (robot poses; the laser
-    sat at ``mount``)."""
-    mount = mount or LaserMount()
+    with) and render the map from the optimised poses of the updates (the laser at ``mount``)."""
     lc = config.loop_closure
     update_scans = [scans[k] for k in np.flatnonzero(is_update)]
     closed, submaps = close_loops(best.poses, update_scans, lc, config.matcher, config.resolution,
