@@ -64,6 +64,15 @@ class PathResponse(BaseModel):
 class ModeBody(Strict):
     mode: Literal["mapping", "localization", "ekf"]
     map: str | None = Field(None, max_length=64)
+    #: Mapping only: throw the current map away and start an empty one (otherwise every mode
+    #: switch keeps the map).
+    new_map: bool = False
+
+    @model_validator(mode="after")
+    def _new_map_is_for_mapping(self):
+        if self.new_map and (self.mode != "mapping" or self.map is not None):
+            raise ValueError("'new_map' starts an empty map: only with mode 'mapping' and no 'map'")
+        return self
 
     @field_validator("map")
     @classmethod

@@ -43,7 +43,7 @@ from app.worker.shared_map import MapTooLarge, SharedMap, grid_cells
 from slam_core.estimator import Estimate
 from slam_core.geometry import compose, relative, transform_points
 from slam_core.io.ros_map import load_map
-from slam_core.occupancy_grid import SensorModel
+from slam_core.occupancy_grid import OccupancyGrid, SensorModel
 from slam_core.rbpf.config import RBPFConfig
 from slam_core.rbpf.filter import RBPFSlam
 
@@ -197,9 +197,13 @@ class Worker:
             return
         try:
             if name == "mode":
-                mode, yaml_path, map_name = args
+                mode, yaml_path, map_name, new_map = args
                 grid = load_map(yaml_path) if yaml_path else None
+                if new_map:
+                    grid = OccupancyGrid(self.settings.resolution)  # empty: mapping starts afresh
                 self._rebuild(mode, grid=grid, mapping=True, map_name=map_name)
+                if mode == "mapping" and not new_map:
+                    self.relocalizer = self._relocalizer()  # register the scans before drawing them
             elif name == "pose":
                 pose = np.asarray(args, float)
                 self._check_room(pose, SensorModel().usable_range)
@@ -209,6 +213,8 @@ class Worker:
                     self._rebuild(self.mode, pose=pose)
             elif name == "mapping":
                 self._rebuild("mapping", mapping=bool(args[0]))
+                if args[0]:
+                    self.relocalizer = self._relocalizer()
             elif name == "shutdown":
                 self.stop.set()
                 return

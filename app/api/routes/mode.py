@@ -11,11 +11,12 @@ from app.worker.estimators import available_modes
 router = APIRouter(tags=["mode"])
 
 
-def send_mode(runtime: Runtime, mode: str, yaml_path: str | None = None, map_name: str | None = None) -> None:
+def send_mode(runtime: Runtime, mode: str, yaml_path: str | None = None, map_name: str | None = None,
+              new_map: bool = False) -> None:
     if mode not in available_modes():
         have = ", ".join(available_modes())
         raise HTTPException(status.HTTP_409_CONFLICT, f"mode {mode!r} is not available (have: {have})")
-    if not runtime.supervisor.send("mode", mode, yaml_path, map_name):
+    if not runtime.supervisor.send("mode", mode, yaml_path, map_name, new_map):
         raise HTTPException(status.HTTP_503_SERVICE_UNAVAILABLE, "the worker is not accepting commands")
     runtime.mode = mode
 
@@ -28,7 +29,8 @@ def read_mode(runtime: RuntimeDep) -> ModeResponse:
 
 @router.put("/mode", response_model=Status)
 def update_mode(body: ModeBody, runtime: RuntimeDep, store: StoreDep) -> dict:
-    """Switch mode; localization runs on a saved map (``map``) or on the current one."""
+    """Switch mode, keeping the map; localization runs on a saved map (``map``) or on the current
+    one; ``new_map: true`` (mapping only) starts an empty map."""
     yaml_path = None
     if body.map is not None:
         try:
@@ -36,7 +38,7 @@ def update_mode(body: ModeBody, runtime: RuntimeDep, store: StoreDep) -> dict:
         except NotFound as exc:
             raise HTTPException(status.HTTP_404_NOT_FOUND, str(exc.args[0])) from None
         yaml_path = str(runtime.settings.maps_dir / f"{body.map}.yaml")
-    send_mode(runtime, body.mode, yaml_path, body.map)
+    send_mode(runtime, body.mode, yaml_path, body.map, body.new_map)
     return runtime.status()
 
 
