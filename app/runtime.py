@@ -66,6 +66,7 @@ class Runtime:
         self._tasks: list[asyncio.Task] = []
         self._loop: asyncio.AbstractEventLoop | None = None
         self.started_at = time.time()
+        self.preparing: dict | None = None  # the worker's warm-up stage while it prepares its kernels
 
     # lifecycle
     async def start(self) -> None:
@@ -116,6 +117,11 @@ class Runtime:
             self._publish_state()
             return
         event = {k: v for k, v in message.items() if k not in ("kind", "trace")}
+        if event["event"] == "warming":
+            self._preparing(event)
+            return
+        if event["event"] == "started":
+            self.preparing = None
         self.events.append(event)
         if event["event"] in ("started", "changed") and "mode" in event:
             self.mode = event["mode"]
@@ -124,6 +130,15 @@ class Runtime:
             self.hub.publish("error", {"detail": event.get("detail")})
         if event["event"] in ("restarted", "started", "changed", "crashed"):
             self.hub.publish("status", self.status())
+
+    def _preparing(self, event: dict) -> None:
+        """Show the worker's warm-up (numba compiles its kernels on the first start) on the console
+        (first worker only) and in the dashboard's status."""
+        self.preparing = {k: event[k] for k in ("done", "total", "stage")}
+        if self.supervisor is not None and self.supervisor.health.restarts == 0:
+            print(f"homebot: preparing the estimator {event['done'] + 1}/{event['total']}: {event['stage']} "
+                  "(numba compiles it once, about a minute, then loads it from its cache)", flush=True)
+        self.hub.publish("status", self.status())
 
     def _publish_state(self) -> None:
         m = self.latest
@@ -244,5 +259,6 @@ class Runtime:
             "sim": self.settings.simulation,
             "true_pose": None if self.sim is None else [float(v) for v in self.sim.true_pose()],
             "events": list(self.events)[-5:],
+            "preparing": self.preparing,
             "time": time.time(),
         }

@@ -153,4 +153,5 @@ class Status(BaseModel):
     sim: bool
     true_pose: list[float] | None
     events: list[dict]
+    preparing: dict | None = None  # {"done", "total", "stage"} while the worker warms up its kernels
     time: float

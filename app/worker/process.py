@@ -279,7 +279,7 @@ class Worker:
     # the loop
     def run(self) -> None:
         s = self.settings
-        warm_up(s)
+        warm_up(s, lambda done, total, stage: self._event("warming", done=done, total=total, stage=stage))
         self.odometry_grabber.start()
         self.scan_grabber.start()
         self._event("started", restart=self.spec.restart, mode=self.mode)
