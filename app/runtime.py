@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import gc
 import logging
 import time
 from collections import deque
@@ -101,6 +102,10 @@ class Runtime:
             await asyncio.to_thread(self.supervisor.stop)
         if self.sim is not None:
             await asyncio.to_thread(self.sim.shutdown)
+        # Drop the children's semaphores now: uvicorn ends the process by re-raising SIGTERM,
+        # which skips the finalizers that would otherwise unlink them (a "leaked" warning).
+        self.sim = None
+        gc.collect()
 
     # worker messages (the relay thread hands them to the loop)
     def _from_relay(self, message: dict) -> None:

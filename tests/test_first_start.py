@@ -44,3 +44,4 @@ def test_the_printed_url_answers_at_once_and_the_warm_up_is_announced(tmp_path):
         assert server.status()["preparing"] is None  # warmed up: the dashboard stops saying so
     finally:
         server.stop()
+    assert "leaked" not in server.output  # a clean stop unlinks every semaphore and shared block

@@ -135,6 +135,7 @@ class WorkerSupervisor:
             self._relay.join(2.0)
         self._drain()
         self._close_queues()
+        self._process = None  # its arguments hold the last queues
         self.health.alive = False
         self.shared_map.close()
         with contextlib.suppress(FileNotFoundError):
