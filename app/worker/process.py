@@ -389,7 +389,7 @@ def worker_main(spec: WorkerSpec, commands, states, scan_slot) -> None:
 
     signal.signal(signal.SIGTERM, _stop)
     signal.signal(signal.SIGINT, _stop)
-    bind_to_parent(spec.parent_pid, lambda: _stop(signal.SIGTERM, None))
+    bind_to_parent(spec.parent_pid)
     try:
         lock = acquire_worker_lock(Path(spec.settings["data_dir"]))
         if lock.ended_pid is not None:
