@@ -55,7 +55,7 @@ POSE_SAVE_S = 0.2
 RATE_SMOOTHING = 0.2
 #: Keep this many poses of the trajectory drawn on the exit PNG.
 TRAJECTORY_KEEP = 20000
-#: A worker that has taken this many steps and then saved a checkpoint reports itself healthy.
+#: A worker that has taken this many steps and published its map reports itself healthy.
 HEALTHY_STEPS = 10
 
 
@@ -202,8 +202,9 @@ class Worker:
                 if new_map:
                     grid = OccupancyGrid(self.settings.resolution)  # empty: mapping starts afresh
                 self._rebuild(mode, grid=grid, mapping=True, map_name=map_name)
-                if mode == "mapping" and not new_map:
-                    self.relocalizer = self._relocalizer()  # register the scans before drawing them
+                # Back to mapping: register the scans before drawing them (other modes need no map
+                # or, on a loaded map, localize by themselves).
+                self._start_relocalizing(mode == "mapping" and not new_map)
             elif name == "pose":
                 pose = np.asarray(args, float)
                 self._check_room(pose, SensorModel().usable_range)
@@ -213,8 +214,7 @@ class Worker:
                     self._rebuild(self.mode, pose=pose)
             elif name == "mapping":
                 self._rebuild("mapping", mapping=bool(args[0]))
-                if args[0]:
-                    self.relocalizer = self._relocalizer()
+                self._start_relocalizing(bool(args[0]))
             elif name == "shutdown":
                 self.stop.set()
                 return
@@ -240,6 +240,11 @@ class Worker:
             self._event("error", detail=f"mapping paused: {exc}")
             self._rebuild("mapping", mapping=False)
             return False
+
+    def _start_relocalizing(self, needed: bool = True) -> None:
+        """Find the robot in the current map before the next scan is drawn (or stop looking)."""
+        self.relocalizer = self._relocalizer() if needed else None
+        self.relocalizing_from = None
 
     def _relocalizer(self) -> Relocalizer | None:
         current = self._checkpoint()
@@ -305,12 +310,12 @@ class Worker:
                 if now >= next_checkpoint and self.map_changed:
                     self._save(with_map=True)
                     next_checkpoint = next_pose_save = now + s.checkpoint_s
-                    if not reported_healthy and self.steps >= HEALTHY_STEPS:
-                        self._event("healthy")
-                        reported_healthy = True
                 elif now >= next_pose_save and self.ticks is not None:
                     self._save(with_map=False)
                     next_pose_save = now + POSE_SAVE_S
+                if not reported_healthy and self.steps >= HEALTHY_STEPS and self.map_written:
+                    self._event("healthy")  # the checkpoint it resumed from does not make it crash
+                    reported_healthy = True
         finally:
             self._exit()
 
