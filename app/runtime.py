@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import gc
 import logging
 import os
 import signal
@@ -82,6 +83,7 @@ class Runtime:
         self._tasks: list[asyncio.Task] = []
         self._loop: asyncio.AbstractEventLoop | None = None
         self.started_at = time.time()
+        self.preparing: dict | None = None  # the worker's warm-up stage while it prepares its kernels
 
     # lifecycle
     async def start(self) -> None:
@@ -117,6 +119,10 @@ class Runtime:
             await asyncio.to_thread(self.supervisor.stop)
         if self.sim is not None:
             await asyncio.to_thread(self.sim.shutdown)
+        # Drop the children's semaphores now: uvicorn ends the process by re-raising SIGTERM,
+        # which skips the finalizers that would otherwise unlink them (a "leaked" warning).
+        self.sim = None
+        gc.collect()
 
     # worker messages (the relay thread hands them to the loop)
     def _from_relay(self, message: dict) -> None:
@@ -134,6 +140,11 @@ class Runtime:
             self._publish_state()
             return
         event = {k: v for k, v in message.items() if k not in ("kind", "trace")}
+        if event["event"] == "warming":
+            self._preparing(event)
+            return
+        if event["event"] == "started":
+            self.preparing = None
         self.events.append(event)
         if event["event"] in ("replay_optimising", "replay_finished"):
             self._on_replay_event(event)
@@ -153,6 +164,15 @@ class Runtime:
         if event["event"] == "replay_finished" and self.settings.replay_exit_at_end:
             log.warning("replay finished; stopping the server (--exit-at-end)")
             self.stop_server()
+
+    def _preparing(self, event: dict) -> None:
+        """Show the worker's warm-up (numba compiles its kernels on the first start) on the console
+        (first worker only) and in the dashboard's status."""
+        self.preparing = {k: event[k] for k in ("done", "total", "stage")}
+        if self.supervisor is not None and self.supervisor.health.restarts == 0:
+            print(f"homebot: preparing the estimator {event['done'] + 1}/{event['total']}: {event['stage']} "
+                  "(numba compiles it once, about a minute, then loads it from its cache)", flush=True)
+        self.hub.publish("status", self.status())
 
     def _publish_state(self) -> None:
         m = self.latest
@@ -276,5 +296,6 @@ class Runtime:
             "loops": latest.get("loops") if latest else None,
             "true_pose": None if self.sim is None else [float(v) for v in self.sim.true_pose()],
             "events": list(self.events)[-5:],
+            "preparing": self.preparing,
             "time": time.time(),
         }

@@ -98,3 +98,30 @@ def test_a_server_restarted_on_the_same_data_dir_finds_the_robot_in_its_map(tmp_
             assert [m["name"] for m in c.get("/api/maps").json()] == ["home"]
     finally:
         again.stop()
+
+
+def known_cells(server: LiveServer, directory) -> int:
+    return int((fetch_map(server, directory).trinary() >= 0).sum())
+
+
+def test_mode_switches_keep_the_map_and_only_new_map_starts_an_empty_one(tmp_path):
+    server = LiveServer(tmp_path / "data", env={"HOMEBOT_SIM_TOUR": "1"}).start()
+    try:
+        time.sleep(10.0)
+        stop_robot(server)
+        mapped = known_cells(server, tmp_path / "mapped")
+        with server.client() as c:
+            assert c.put("/api/mode", json={"mode": "ekf"}).status_code == 200
+            wait_for(server, lambda s: s["mode"] == "ekf" and s["worker"]["steps"] > 0, TIMEOUT_S)
+            assert c.put("/api/mode", json={"mode": "mapping"}).status_code == 200
+            status, _ = wait_for(server, lambda s: s["mode"] == "mapping" and localized(s), TIMEOUT_S)
+            assert pose_error(status) <= POSE_TOLERANCE_M
+            assert known_cells(server, tmp_path / "kept") >= 0.98 * mapped  # the same map, continued
+            r = c.put("/api/mode", json={"mode": "localization", "new_map": True})
+            assert r.status_code == 422 and "new_map" in r.text
+            assert c.put("/api/mode", json={"mode": "mapping", "new_map": True}).status_code == 200
+            wait_for(server, lambda s: any(e["event"] == "changed" for e in s["events"][-2:]), TIMEOUT_S)
+            time.sleep(2.0)
+        assert known_cells(server, tmp_path / "new") < 0.7 * mapped  # one view of the room, not the home
+    finally:
+        server.stop()

@@ -123,6 +123,15 @@ class PathResponse(BaseModel):
 class ModeBody(Strict):
     mode: Literal["mapping", "localization", "ekf"]
     map: MapName | None = None
+    #: Mapping only: throw the current map away and start an empty one (otherwise every mode
+    #: switch keeps the map).
+    new_map: bool = False
+
+    @model_validator(mode="after")
+    def _new_map_is_for_mapping(self):
+        if self.new_map and (self.mode != "mapping" or self.map is not None):
+            raise ValueError("'new_map' starts an empty map: only with mode 'mapping' and no 'map'")
+        return self
 
 
 class ModeResponse(BaseModel):
@@ -188,4 +197,5 @@ class Status(BaseModel):
     loops: dict | None = None
     true_pose: list[float] | None
     events: list[dict]
+    preparing: dict | None = None  # {"done", "total", "stage"} while the worker warms up its kernels
     time: float

@@ -70,6 +70,7 @@ def _check_slam_config(settings) -> None:
 def run(args: argparse.Namespace) -> int:
     import uvicorn
 
+    from app.cli.announce import announce_when_serving
     from app.core.config import Settings
     from app.core.security import load_or_create_token
     from app.main import create_app
@@ -86,10 +87,12 @@ def run(args: argparse.Namespace) -> int:
     token, created = load_or_create_token(settings.data_dir, settings.token)
     url = f"http://{settings.host}:{settings.port}/"
     if created:
-        print(f"homebot: first start; open {url}?token={token}", flush=True)
-        print(f"homebot: token stored in {settings.data_dir / 'token'} (shown only this once)", flush=True)
+        lines = [f"homebot: first start; open {url}?token={token}",
+                 f"homebot: token stored in {settings.data_dir / 'token'} (shown only this once)"]
     else:
-        print(f"homebot: serving {url} (token in {settings.data_dir / 'token'})", flush=True)
+        lines = [f"homebot: serving {url} (token in {settings.data_dir / 'token'})"]
+    print("homebot: starting ...", flush=True)
+    announce_when_serving(settings.host, settings.port, lines)  # once the page answers
     app = create_app(settings, stop_server=lambda: setattr(server, "should_exit", True))
     server = uvicorn.Server(uvicorn.Config(app, host=settings.host, port=settings.port, log_level="warning",
                                            proxy_headers=True, forwarded_allow_ips="127.0.0.1",

@@ -82,7 +82,7 @@ def run_simulator(world_name: str, seed: int, link: str, scans: ScanSlot, truth,
                   parent_pid: int) -> None:
     """The simulator process: step physics in real time, scan, serve the MCU pty."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the server stops us through ``stop``
-    bind_to_parent(parent_pid, stop.set)  # ... and we stop when it dies
+    bind_to_parent(parent_pid)  # ... and we end when it dies
     from app.robot_link.virtual_mcu import VirtualMCU
     from slam_core.sim.lidar import Lidar
     from slam_core.sim.robot import SimRobot

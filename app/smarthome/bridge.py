@@ -175,7 +175,7 @@ class MqttBridge:
             modes = available_modes()
             if command.mode not in modes:
                 raise cmd.CommandError(f"mode {command.mode!r} is not available (have: {', '.join(modes)})")
-            if not runtime.supervisor.send("mode", command.mode, None, None):
+            if not runtime.supervisor.send("mode", command.mode, None, None, False):
                 raise cmd.CommandError("the worker is not accepting commands")
             runtime.mode = command.mode
             return {"mode": command.mode}

@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from app.worker.estimators import Checkpoint
+from app.worker.shared_map import MAX_SIDE
 from slam_core.io.render import save_png
 from slam_core.io.ros_map import save_map
 from slam_core.occupancy_grid import OccupancyGrid
@@ -119,8 +120,9 @@ def read_snapshot(path: Path, max_cells: int) -> Checkpoint:
     except (OSError, ValueError, KeyError, TypeError, EOFError, zipfile.BadZipFile, zlib.error) as exc:
         raise BadCheckpoint(f"unreadable: {type(exc).__name__}: {exc}") from None
     if grid is not None:
-        if grid.data.ndim != 2 or grid.data.size > max_cells:
-            raise BadCheckpoint(f"map of shape {grid.data.shape} exceeds the limit of {max_cells} cells")
+        if grid.data.ndim != 2 or grid.data.size > max_cells or max(grid.data.shape) > MAX_SIDE:
+            raise BadCheckpoint(f"map of shape {grid.data.shape} exceeds the limit of {max_cells} cells "
+                                f"(sides of at most {MAX_SIDE})")
         if not np.all(np.isfinite(grid.data)) or (hits is not None and hits.shape != (*grid.shape, 3)):
             raise BadCheckpoint("map holds non-finite cells or hit sums of the wrong shape")
     return checkpoint

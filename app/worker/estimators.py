@@ -130,18 +130,30 @@ def available_modes() -> tuple[str, ...]:
 WARM_UP_BEAMS = 90
 
 
-def warm_up(settings) -> None:
+#: What :func:`warm_up` prepares, in order (shown while it runs).
+WARM_UP_STAGES = ("particle filter: first scan", "particle filter: update", "re-localization")
+
+
+def warm_up(settings, progress=None) -> None:
     """Compile (or load from numba's cache) the mapping kernels before the first real step.
 
     A first update compiled lazily would stall the live loop for a long time on a
     fresh install; a two-particle filter on a synthetic round room does it up front, and
-    a re-localization in its map compiles the searches a restart needs.
+    a re-localization in its map compiles the searches a restart needs. ``progress(done,
+    total, stage)`` is called before each of :data:`WARM_UP_STAGES`.
     """
     config = RBPFConfig(particles=2, resolution=settings.resolution, linear_update=0.01, angular_update=0.01)
     slam = RBPFSlam(config, seed=0)
     angles = np.linspace(-np.pi, np.pi, WARM_UP_BEAMS, endpoint=False)
     scan = Scan(angles, np.full(WARM_UP_BEAMS, 2.0), 0.1, 8.0)
-    slam.step(np.zeros(3), scan)
-    slam.step(np.array([0.05, 0.0, 0.02]), scan)
-    grid, hits = map_with_hits(slam)
-    Relocalizer(grid, hits, config).locate(scan, np.array([0.3, 0.0, 0.0]))
+
+    def relocalize() -> None:
+        grid, hits = map_with_hits(slam)
+        Relocalizer(grid, hits, config).locate(scan, np.array([0.3, 0.0, 0.0]))
+
+    stages = (lambda: slam.step(np.zeros(3), scan), lambda: slam.step(np.array([0.05, 0.0, 0.02]), scan),
+              relocalize)
+    for done, (name, stage) in enumerate(zip(WARM_UP_STAGES, stages, strict=True)):
+        if progress is not None:
+            progress(done, len(WARM_UP_STAGES), name)
+        stage()

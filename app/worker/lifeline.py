@@ -1,13 +1,12 @@
 """Child processes end with the server: a parent-death signal and a watcher thread.
 
 A child started by the server (the SLAM worker, the simulator) calls :func:`bind_to_parent`
-first thing. On Linux the kernel then sends it SIGTERM the moment its parent dies
-(``prctl(PR_SET_PDEATHSIG)``), which the child handles as an ordinary stop. Because that
-signal is tied to the thread that started the child, and a child busy compiling kernels may
-not reach its stop check soon, a daemon thread also watches the parent's pid: once the
-child has been orphaned it asks the child to stop and, if it is still running
-:data:`GRACE_S` later, exits the process outright. Either way no child outlives the
-server by more than about two seconds.
+first thing. On Linux the kernel then kills it the moment its parent dies
+(``prctl(PR_SET_PDEATHSIG, SIGKILL)``). That signal is tied to the *thread* that started the
+child, so a daemon thread also watches the parent's pid and ends the process once it has
+been orphaned. Neither path tries a clean stop: nobody reads the child's messages any more,
+so a clean exit could wait forever on a full pipe, and what matters is already on disk
+(checkpoints are atomic and at most a second old).
 """
 
 from __future__ import annotations
@@ -20,7 +19,6 @@ import signal
 import sys
 import threading
 import time
-from collections.abc import Callable
 
 log = logging.getLogger(__name__)
 
@@ -28,13 +26,11 @@ log = logging.getLogger(__name__)
 PR_SET_PDEATHSIG = 1
 #: How often the watcher looks at the parent (s).
 POLL_S = 0.2
-#: How long an orphaned child may take to stop by itself before it is ended (s).
-GRACE_S = 1.0
 #: Exit status of a child ended because its parent died.
 EXIT_ORPHANED = 3
 
 
-def set_parent_death_signal(signum: int = signal.SIGTERM) -> bool:
+def set_parent_death_signal(signum: int = signal.SIGKILL) -> bool:
     """Ask the kernel to send ``signum`` to this process when its parent dies (Linux only)."""
     if not sys.platform.startswith("linux"):
         return False
@@ -45,23 +41,16 @@ def set_parent_death_signal(signum: int = signal.SIGTERM) -> bool:
     return True
 
 
-def bind_to_parent(parent_pid: int, on_orphaned: Callable[[], None]) -> None:
-    """End this process soon after ``parent_pid`` dies (see the module docstring).
+def bind_to_parent(parent_pid: int) -> None:
+    """End this process as soon as ``parent_pid`` is no longer its parent (see the module docstring).
 
-    ``on_orphaned`` is called once from the watcher thread to request a clean stop; the
-    process is ended with :data:`EXIT_ORPHANED` if it has not exited :data:`GRACE_S` later.
-    The parent may already be gone when this runs: then the same happens at once.
+    The parent may already be gone when this runs: then it ends at once.
     """
-    set_parent_death_signal(signal.SIGTERM)
-    threading.Thread(target=_watch, args=(parent_pid, on_orphaned), name="lifeline", daemon=True).start()
+    set_parent_death_signal(signal.SIGKILL)
+    threading.Thread(target=_watch, args=(parent_pid,), name="lifeline", daemon=True).start()
 
 
-def _watch(parent_pid: int, on_orphaned: Callable[[], None]) -> None:
+def _watch(parent_pid: int) -> None:
     while os.getppid() == parent_pid:
         time.sleep(POLL_S)
-    log.warning("the server (pid %d) is gone; stopping", parent_pid)
-    try:
-        on_orphaned()
-    finally:
-        time.sleep(GRACE_S)
-        os._exit(EXIT_ORPHANED)
+    os._exit(EXIT_ORPHANED)

@@ -64,7 +64,7 @@ POSE_SAVE_S = 0.2
 RATE_SMOOTHING = 0.2
 #: Keep this many poses of the trajectory drawn on the exit PNG.
 TRAJECTORY_KEEP = 20000
-#: A worker that has taken this many steps and then saved a checkpoint reports itself healthy.
+#: A worker that has taken this many steps and published its map reports itself healthy.
 HEALTHY_STEPS = 10
 
 
@@ -249,9 +249,14 @@ class Worker:
             return
         try:
             if name == "mode":
-                mode, yaml_path, map_name = args
+                mode, yaml_path, map_name, new_map = args
                 grid = load_map(yaml_path) if yaml_path else None
+                if new_map:
+                    grid = OccupancyGrid(self.settings.resolution)  # empty: mapping starts afresh
                 self._rebuild(mode, grid=grid, mapping=True, map_name=map_name)
+                # Back to mapping: register the scans before drawing them (other modes need no map
+                # or, on a loaded map, localize by themselves).
+                self._start_relocalizing(mode == "mapping" and not new_map)
             elif name == "pose":
                 pose = np.asarray(args, float)
                 self._check_room(pose, SensorModel().usable_range)
@@ -261,6 +266,7 @@ class Worker:
                     self._rebuild(self.mode, pose=pose)
             elif name == "mapping":
                 self._rebuild("mapping", mapping=bool(args[0]))
+                self._start_relocalizing(bool(args[0]))
             elif name == "shutdown":
                 self.stop.set()
                 return
@@ -286,6 +292,11 @@ class Worker:
             self._event("error", detail=f"mapping paused: {exc}")
             self._rebuild("mapping", mapping=False)
             return False
+
+    def _start_relocalizing(self, needed: bool = True) -> None:
+        """Find the robot in the current map before the next scan is drawn (or stop looking)."""
+        self.relocalizer = self._relocalizer() if needed else None
+        self.relocalizing_from = None
 
     def _relocalizer(self) -> Relocalizer | None:
         current = self._checkpoint()
@@ -325,7 +336,7 @@ class Worker:
     # the loop
     def run(self) -> None:
         s = self.settings
-        warm_up(s)
+        warm_up(s, lambda done, total, stage: self._event("warming", done=done, total=total, stage=stage))
         for source in self.sources:
             source.start()
         self._event("started", restart=self.spec.restart, mode=self.mode)
@@ -349,12 +360,12 @@ class Worker:
                 if now >= next_checkpoint and self.map_changed:
                     self._save(with_map=True)
                     next_checkpoint = next_pose_save = now + s.checkpoint_s
-                    if not reported_healthy and self.steps >= HEALTHY_STEPS:
-                        self._event("healthy")
-                        reported_healthy = True
                 elif now >= next_pose_save and self.ticks is not None:
                     self._save(with_map=False)
                     next_pose_save = now + POSE_SAVE_S
+                if not reported_healthy and self.steps >= HEALTHY_STEPS and self.map_written:
+                    self._event("healthy")  # the checkpoint it resumed from does not make it crash
+                    reported_healthy = True
         finally:
             self._exit()
 
@@ -502,7 +513,7 @@ def worker_main(spec: WorkerSpec, commands, states, scan_slot) -> None:
 
     signal.signal(signal.SIGTERM, _stop)
     signal.signal(signal.SIGINT, _stop)
-    bind_to_parent(spec.parent_pid, lambda: _stop(signal.SIGTERM, None))
+    bind_to_parent(spec.parent_pid)
     try:
         lock = acquire_worker_lock(Path(spec.settings["data_dir"]))
         if lock.ended_pid is not None:

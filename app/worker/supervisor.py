@@ -87,7 +87,8 @@ class WorkerSupervisor:
         self._process: mp.Process | None = None
         self._commands = None
         self._states = None
-        self._stopping = threading.Event()
+        self._stopping = threading.Event()  # no more restarts
+        self._relay_done = threading.Event()  # the relay may stop reading (the worker has exited)
         self._relay: threading.Thread | None = None
         self._resumed = False  # the current worker loaded its checkpoint and started
         self._blamed = 0  # workers in a row that died after resuming, before they were healthy
@@ -127,14 +128,16 @@ class WorkerSupervisor:
         proc = self._process
         if proc is not None and proc.is_alive():
             os.kill(proc.pid, signal.SIGTERM)
-            proc.join(STOP_TIMEOUT_S)
+            proc.join(STOP_TIMEOUT_S)  # the relay reads on meanwhile, so the worker's last messages flow
             if proc.is_alive():
                 proc.kill()
                 proc.join()
+        self._relay_done.set()
         if self._relay is not None:
             self._relay.join(2.0)
         self._drain()
         self._close_queues()
+        self._process = None  # its arguments hold the last queues
         self.health.alive = False
         self.shared_map.close()
         with contextlib.suppress(FileNotFoundError):
@@ -180,7 +183,7 @@ class WorkerSupervisor:
             log.exception("worker message consumer failed")
 
     def _run(self) -> None:
-        while not self._stopping.is_set():
+        while not self._relay_done.is_set():
             try:
                 message = self._states.get(timeout=POLL_S)
             except queue.Empty:

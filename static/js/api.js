@@ -88,8 +88,8 @@ export class Api {
   cancelGoal() {
     return this.request("DELETE", "goal");
   }
-  setMode(mode, map) {
-    return this.request("PUT", "mode", map ? { mode, map } : { mode });
+  setMode(mode, map, newMap = false) {
+    return this.request("PUT", "mode", { mode, ...(map ? { map } : {}), ...(newMap ? { new_map: true } : {}) });
   }
   setPose(x, y, yaw) {
     return this.request("POST", "pose", { x, y, yaw });

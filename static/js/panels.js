@@ -30,6 +30,7 @@ export class Panels {
       button.addEventListener("click", () => this.setMode(button.dataset.mode));
     }
     this.mappingToggle.addEventListener("click", () => this.toggleMapping());
+    root.getElementById("new-map").addEventListener("click", () => this.startNewMap());
     this.placeForm.addEventListener("submit", (e) => {
       e.preventDefault();
       this.addPlaceAtRobot();
@@ -67,6 +68,13 @@ export class Panels {
   async setMode(mode) {
     const map = mode === "localization" ? this.modeMap.value || undefined : undefined;
     const status = await this.run(() => this.api.setMode(mode, map), `Mode: ${mode}`);
+    if (status) this.state.handle({ type: "status", ...status });
+  }
+
+  // Every mode switch keeps the map; only this throws it away, and only once the person confirms.
+  async startNewMap() {
+    if (!window.confirm("Start a new, empty map? The current map is lost unless you save it first (Saved maps).")) return;
+    const status = await this.run(() => this.api.setMode("mapping", undefined, true), "New map started");
     if (status) this.state.handle({ type: "status", ...status });
   }
 

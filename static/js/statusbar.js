@@ -39,7 +39,12 @@ export class StatusBar {
     else setPill(this.loc, localized ? "localized" : "not localized", localized ? "good" : "warn");
 
     const worker = s?.worker;
-    if (worker) {
+    if (s?.preparing) {
+      // The first start compiles the estimator's kernels (about a minute): say so, with progress.
+      const { done, total, stage } = s.preparing;
+      setPill(this.rate, `preparing ${done + 1}/${total}`, "warn");
+      this.rate.title = `Preparing the estimator (compiled on the first start, then cached): ${stage}`;
+    } else if (worker) {
       const alive = worker.alive !== false;
       setPill(this.rate, alive ? `${(worker.rate_hz ?? 0).toFixed(1)} Hz` : "worker down", alive ? "" : "warn");
       this.rate.title = `SLAM worker: ${worker.steps ?? 0} steps, ${worker.restarts ?? 0} restarts`;

@@ -308,3 +308,23 @@ def test_offline_banner_and_reconnect_after_a_server_restart(dashboard, homebot_
     page.wait_for_function("window.homebot.state.online && window.homebot.state.status.worker.alive",
                            timeout=STREAM_TIMEOUT_MS)
     assert page.locator("#st-conn").inner_text().strip() == "online"
+
+
+def test_a_new_map_is_started_only_once_the_person_confirms(dashboard):
+    """Mode switches keep the map; the one way to drop it asks first (the server side is tested in
+    tests/test_recovery.py)."""
+    page = dashboard
+    sent = []
+    page.on("request", lambda r: sent.append(r.post_data_json) if r.url.endswith("/api/mode") else None)
+    asked = []
+    page.once("dialog", lambda dialog: (asked.append(dialog.message), dialog.dismiss()))
+    page.click("#new-map")
+    page.wait_for_timeout(1000)
+    assert asked and "new, empty map" in asked[0]
+    assert sent == []  # dismissed: nothing sent, the map stays
+    page.once("dialog", lambda dialog: dialog.accept())
+    with page.expect_response(lambda r: r.url.endswith("/api/mode")) as answer:
+        page.click("#new-map")
+    assert answer.value.status == 200
+    assert sent == [{"mode": "mapping", "new_map": True}]
+    assert page.js_errors == []

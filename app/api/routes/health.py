@@ -21,7 +21,10 @@ def degraded_reasons(runtime) -> list[str]:
     elif not worker.alive:
         reasons.append("worker not running (restarting)")
     latest = runtime.latest
-    if latest is None:
+    if runtime.preparing is not None:
+        p = runtime.preparing
+        reasons.append(f"preparing the estimator {p['done'] + 1}/{p['total']}: {p['stage']}")
+    elif latest is None:
         reasons.append("no pose yet (worker starting)")
     elif latest.get("relocalizing"):
         reasons.append("not localized: looking for the robot in the restored map; mapping paused")

@@ -68,14 +68,14 @@ async def apply(runtime: Runtime, response: Response, *command) -> dict:
 
 
 async def switch_mode(runtime: Runtime, response: Response, mode: str, yaml_path: str | None = None,
-                      map_name: str | None = None) -> dict:
+                      map_name: str | None = None, new_map: bool = False) -> dict:
     if mode not in available_modes():
         have = ", ".join(available_modes())
         raise ApiError(status.HTTP_409_CONFLICT, "mode_unavailable",
                        f"mode {mode!r} is not available (have: {have})")
     if mode == "localization" and yaml_path is None and runtime.current_grid() is None:
         raise ApiError(status.HTTP_409_CONFLICT, "no_map", "there is no map to localize on yet")
-    return await apply(runtime, response, "mode", mode, yaml_path, map_name)
+    return await apply(runtime, response, "mode", mode, yaml_path, map_name, new_map)
 
 
 @router.get("/mode", response_model=ModeResponse)
@@ -87,11 +87,12 @@ def read_mode(runtime: RuntimeDep) -> ModeResponse:
 @router.put("/mode", response_model=Status, dependencies=[NotReplaying], responses={202: {"model": Status,
                                                             "description": "the worker is still switching"}})
 async def update_mode(body: ModeBody, runtime: RuntimeDep, store: StoreDep, response: Response) -> dict:
-    """Switch mode; localization runs on a saved map (``map``) or on the current one."""
+    """Switch mode, keeping the map; localization runs on a saved map (``map``) or on the current
+    one; ``new_map: true`` (mapping only) starts an empty map."""
     yaml_path = None
     if body.map is not None:
         yaml_path = str(await checked_map_file(runtime, store, body.map))
-    return await switch_mode(runtime, response, body.mode, yaml_path, body.map)
+    return await switch_mode(runtime, response, body.mode, yaml_path, body.map, body.new_map)
 
 
 @router.post("/mapping/start", response_model=Status, dependencies=[NotReplaying],
