@@ -31,7 +31,7 @@ def test_schemathesis_finds_no_failure(server, tmp_path):
          "--header", f"Authorization: Bearer {server.token}",
          "--exclude-path", "/api/shutdown",  # it stops the server (tested in test_server_persistence)
          "--request-timeout", "30", "--report-dir", str(tmp_path)],
-        capture_output=True, text=True, timeout=RUN_TIMEOUT_S)
+        cwd=tmp_path, capture_output=True, text=True, timeout=RUN_TIMEOUT_S)  # its cache: not in the repo
     summary = run.stdout[-6000:]
     assert run.returncode == 0, summary + run.stderr[-2000:]
     assert "Tested: " in summary and "failures" not in summary.split("SUMMARY")[-1].lower(), summary
