@@ -310,14 +310,15 @@ class MonteCarloLocalizer:
         return main_cluster(self.particles, self.weights, cfg.cluster_xy, cfg.cluster_theta_bins)
 
     def estimate(self) -> Estimate:
-        """The tracked pose while there is a track (``localized`` once confirmed), else the main
-        cluster's mean."""
+        """The tracked pose while there is a track, else the main cluster's mean; ``localized``
+        while the track is confirmed and the last scan fitted."""
         if self._estimate is None:
             c = self.main_cluster()
             tracking = self.tracker.tracking
             pose = self.tracker.pose.copy() if tracking else c.pose
             self._estimate = Estimate(pose=pose, covariance=c.covariance, particles=self.particles,
-                                      weights=self.weights, localized=tracking and self.tracker.confirmed)
+                                      weights=self.weights, localized=tracking and self.tracker.confirmed
+                                      and self.tracker.misses == 0)
         return self._estimate
 
     def occupancy_map(self) -> OccupancyGrid:

@@ -19,9 +19,10 @@ does the former on every scan:
 
 The tracker is (re)started from a known start, or from the particle filter's main
 cluster once it has converged and matches well there. A track started from the
-filter is *confirmed* only after ``confirm_travel`` metres of odometry: in a
-look-alike corridor the filter can converge on the wrong one while the robot
-barely moves.
+filter is *confirmed* only after ``confirm_travel`` metres of odometry during
+which its usual fit stayed at least ``start_fit`` (it is dropped as soon as it
+does not): in a look-alike corridor the filter can converge on the wrong one
+while the robot barely moves.
 """
 
 from __future__ import annotations
@@ -47,7 +48,7 @@ class TrackingConfig:
     keep_ratio: float = 0.6
     usual_rate: float = 0.1
     #: ... and for a track to start from a pose the particle filter proposes.
-    start_fit: float = 0.7
+    start_fit: float = 0.8
     #: Odometry travel (m) a track started by the filter must survive before it is confirmed.
     confirm_travel: float = 3.0
     #: Rejected scans in a row after which the track is lost.
@@ -141,8 +142,8 @@ class PoseTracker:
             self._moved[:] = 0.0
         else:
             self.misses += 1
-            if self.misses >= self.config.patience:
-                self.lose()
+        if self.misses >= cfg.patience or (not self.confirmed and self.usual_fit < cfg.start_fit):
+            self.lose()
         return result
 
     def try_start(self, pose, points: np.ndarray) -> bool:
