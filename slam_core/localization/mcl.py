@@ -12,7 +12,8 @@ The published pose is the tracked one (:mod:`slam_core.localization.tracking`:
 odometry, then scan-to-map matching on every scan) while there is a track, else
 the weighted mean of the heaviest particle cluster. The filter runs on its own
 and checks the track: a track starts from a known pose or from the converged
-main cluster, and restarts there when the converged cloud disagrees with it.
+main cluster, and moves there when the converged cloud disagrees with it and
+the scan fits there at least as well.
 While the track holds no random particles are injected, and once it is
 confirmed the robot is *localized*.
 """
@@ -73,7 +74,8 @@ class MclConfig:
     #: Clustering for the published pose: bin size in x, y (m) and number of heading bins.
     cluster_xy: float = 0.5
     cluster_theta_bins: int = 12
-    #: "localized" when the main cluster carries this much weight and its spread is this small.
+    #: The cloud has converged when its main cluster carries this much weight and its spread is
+    #: this small ...
     localized_weight: float = 0.9
     localized_xy_std: float = 0.15
     localized_theta_std: float = np.radians(8.0)
@@ -211,10 +213,10 @@ class MonteCarloLocalizer:
         A converged cloud that the track disagrees with wins when the scan fits the map
         there at least as well as at the track (the filter weighs many scans, the track
         one), or well (``start_fit``). Without a track, a converged cloud starts one
-        where the scan fits well;
-        a cloud that stays converged where it fits badly for ``relocalize_after``
-        updates is wrong, and the filter starts over globally, as it does when the
-        track is lost (a kidnapping) where the cloud does not fit well either.
+        where the scan fits well; a cloud that stays converged where it fits badly for
+        ``relocalize_after`` updates is wrong, and the filter starts over globally, as
+        it does when the track is lost (a kidnapping) where the cloud does not fit well
+        either.
         """
         cfg = self.config
         points = tracking_points(scan, cfg.laser_pose, cfg.tracking.beams, cfg.tracking.max_range)
