@@ -192,15 +192,18 @@ def _table_row(name: str, start: str, log: Path, grid, reference: Trajectory, re
             f"| {wall:.0f} |")
 
 
-def issue_table(slam_maps: Path | None, stress: Path | None, seeds: list[int]) -> None:
+def issue_table(slam_maps: Path | None, stress: Path | None, seeds: list[int], logs: set[str] | None) -> None:
     print("| log | start | seed | within 0.10 m / 2 deg after 10 m (%) | max jump (m) | relation error (m) "
           "| reference's (m) | localized (%) | localized > 0.5 m off (%) | travel to right pose (m) "
           "| wall (s) |")
     print("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+    def wanted(name: str) -> bool:
+        return logs is None or name in logs
+
     cases = [(name, resolve_log(name), *_reference_for_shipped(name, slam_maps),
-              _relations(name)) for name in ("intel", "mit-csail")]
+              _relations(name)) for name in ("intel", "mit-csail") if wanted(name)]
     if stress is not None:
-        for folder in sorted(p for p in stress.iterdir() if p.is_dir()):
+        for folder in sorted(p for p in stress.iterdir() if p.is_dir() and wanted(p.name)):
             cases.append((folder.name, folder / f"{folder.name}.clf.bz2", *_reference_for_stress(folder),
                           load_relations(folder / f"{folder.name}.relations")))
     for name, log, grid, reference, relations in cases:
@@ -226,10 +229,12 @@ def main() -> None:
     parser.add_argument("--slam-maps", type=Path, help="folder with <log>/map.yaml of earlier SLAM runs")
     parser.add_argument("--stress", type=Path, help="folder of the stress logs (one folder per log)")
     parser.add_argument("--seeds", default="0,1", help="seeds of the global runs in the table")
+    parser.add_argument("--logs", help="only these logs in the table (comma-separated names)")
     args = parser.parse_args()
     t = time.perf_counter()
     if args.table:
-        issue_table(args.slam_maps, args.stress, [int(v) for v in args.seeds.split(",")])
+        issue_table(args.slam_maps, args.stress, [int(v) for v in args.seeds.split(",")],
+                    None if args.logs is None else set(args.logs.split(",")))
         print(f"total {time.perf_counter() - t:.1f} s")
         return
     if not args.skip_updates:
