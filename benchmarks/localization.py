@@ -9,7 +9,14 @@
    (Kümmerle 2009) of the replayed trajectory and its deviation from the poses the map was
    built with (the map frame), plus the time to the first "localized".
 
+4. The issue #18 table (``--table``): every shipped log in the map ``homebot slam`` builds from it
+   (``--slam-maps DIR`` reuses ``DIR/<log>/map.yaml`` and ``trajectory.txt`` of earlier runs) and
+   every stress log (``--stress DIR``) in the map built from its ground truth: tracking from the
+   reference's first pose and global localization (seeds), scored against the reference
+   trajectory with :func:`slam_core.localization.scoring.agreement`.
+
     python benchmarks/localization.py [--map MAP.yaml] [--log mit-csail] [--skip-replay] [--skip-sim]
+    python benchmarks/localization.py --table [--slam-maps DIR] [--stress DIR] [--seeds 0,1]
 
 Without --map, the MIT CSAIL map is built from the log's raw odometry (``homebot map``).
 """
@@ -28,13 +35,16 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from slam_core.datasets import resolve_log, resolve_relations
-from slam_core.evaluation import relation_error
+from slam_core.evaluation import load_relations, relation_error
 from slam_core.geometry import wrap_angle
 from slam_core.io.carmen import laser_records
 from slam_core.io.ros_map import load_map, save_map
 from slam_core.io.trajectory import Trajectory
 from slam_core.localization import MclConfig, MonteCarloLocalizer
 from slam_core.localization.replay import replay_log
+from slam_core.localization.scoring import agreement
+from slam_core.occupancy_grid import OccupancyGrid
+from slam_core.pipelines.log_slam import slam_from_log
 from slam_core.pipelines.odometry_mapping import map_from_odometry
 from slam_core.sim.ground_truth import ground_truth_map
 from slam_core.sim.record import record_tour
@@ -147,9 +157,62 @@ def replay(map_path: Path | None, log_name: str, particles: tuple[int, int]) -> 
               f"p95 {np.percentile(a, 95):.2f} deg")
 
 
-def _relations(log_name: str):
-    from slam_core.evaluation import load_relations
+def _reference_for_shipped(name: str, slam_maps: Path | None):
+    """The SLAM map and trajectory of a shipped log: from an earlier run, or a fresh ``homebot slam``."""
+    if slam_maps is not None and (slam_maps / name / "map.yaml").exists():
+        return load_map(slam_maps / name / "map.yaml"), Trajectory.load(slam_maps / name / "trajectory.txt")
+    run = slam_from_log(resolve_log(name))
+    return run.grid, run.trajectory
 
+
+def _reference_for_stress(folder: Path):
+    """The map built from a stress log's ground-truth poses, and those poses."""
+    log = folder / f"{folder.name}.clf.bz2"
+    truth = np.loadtxt(folder / f"{folder.name}.gt", comments="#")
+    records = list(laser_records(log))
+    if len(records) != len(truth):
+        raise ValueError(f"{folder.name}: {len(records)} scans but {len(truth)} ground-truth poses")
+    grid = OccupancyGrid(0.05)
+    for record, pose in zip(records, truth[:, 1:], strict=True):
+        grid.integrate(record.scan, pose)
+    return grid, Trajectory([r.stamp.ipc_text for r in records], truth[:, 1:])
+
+
+def _table_row(name: str, start: str, log: Path, grid, reference: Trajectory, relations, seed: int) -> str:
+    initial = reference.poses[0] if start == "known" else None
+    t = time.perf_counter()
+    run = replay_log(log, grid, None, initial, np.diag([0.1, 0.1, 0.05]) ** 2, seed)
+    wall = time.perf_counter() - t
+    a = agreement(run.trajectory.poses, reference.poses, run.localized)
+    ours = relation_error(run.trajectory.times, run.trajectory.poses, relations).summary()["trans_mean_m"]
+    ref = relation_error(reference.times, reference.poses, relations).summary()["trans_mean_m"]
+    to_correct = "never" if a.travel_to_correct is None else f"{a.travel_to_correct:.1f}"
+    return (f"| {name} | {start} | {seed} | {100 * a.within:.1f} | {a.max_jump:.2f} | {ours:.3f} "
+            f"| {ref:.3f} | {100 * a.localized:.1f} | {100 * a.false_localized:.2f} | {to_correct} "
+            f"| {wall:.0f} |")
+
+
+def issue_table(slam_maps: Path | None, stress: Path | None, seeds: list[int], logs: set[str] | None) -> None:
+    print("| log | start | seed | within 0.10 m / 2 deg after 10 m (%) | max jump (m) | relation error (m) "
+          "| reference's (m) | localized (%) | localized > 0.5 m off (%) | travel to right pose (m) "
+          "| wall (s) |")
+    print("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+    def wanted(name: str) -> bool:
+        return logs is None or name in logs
+
+    cases = [(name, resolve_log(name), *_reference_for_shipped(name, slam_maps),
+              _relations(name)) for name in ("intel", "mit-csail") if wanted(name)]
+    if stress is not None:
+        for folder in sorted(p for p in stress.iterdir() if p.is_dir() and wanted(p.name)):
+            cases.append((folder.name, folder / f"{folder.name}.clf.bz2", *_reference_for_stress(folder),
+                          load_relations(folder / f"{folder.name}.relations")))
+    for name, log, grid, reference, relations in cases:
+        print(_table_row(name, "known", log, grid, reference, relations, seeds[0]), flush=True)
+        for seed in seeds:
+            print(_table_row(name, "global", log, grid, reference, relations, seed), flush=True)
+
+
+def _relations(log_name: str):
     return load_relations(resolve_relations(log_name))
 
 
@@ -162,8 +225,18 @@ def main() -> None:
     parser.add_argument("--skip-replay", action="store_true")
     parser.add_argument("--skip-updates", action="store_true")
     parser.add_argument("--skip-sim", action="store_true")
+    parser.add_argument("--table", action="store_true", help="only the issue #18 table (section 4)")
+    parser.add_argument("--slam-maps", type=Path, help="folder with <log>/map.yaml of earlier SLAM runs")
+    parser.add_argument("--stress", type=Path, help="folder of the stress logs (one folder per log)")
+    parser.add_argument("--seeds", default="0,1", help="seeds of the global runs in the table")
+    parser.add_argument("--logs", help="only these logs in the table (comma-separated names)")
     args = parser.parse_args()
     t = time.perf_counter()
+    if args.table:
+        issue_table(args.slam_maps, args.stress, [int(v) for v in args.seeds.split(",")],
+                    None if args.logs is None else set(args.logs.split(",")))
+        print(f"total {time.perf_counter() - t:.1f} s")
+        return
     if not args.skip_updates:
         update_costs()
     lo, hi = (int(v) for v in args.particles.split(","))

@@ -41,6 +41,7 @@ def place(sim: Simulator, pose, seed: int) -> None:
 @dataclass
 class Update:
     travelled: float
+    seconds: float  # simulated time since the leg started
     error_xy: float
     error_theta: float
     localized: bool
@@ -62,8 +63,11 @@ class Drive:
         self._odom_fed = None
         self._odom_base = None
 
-    def leg(self, k: int, max_travel: float, stop=None) -> list[Update]:
-        """Teleport to waypoint ``k`` and follow the tour from there for ``max_travel`` metres."""
+    def leg(self, k: int, max_travel: float, stop=None, every_scan: bool = False) -> list[Update]:
+        """Teleport to waypoint ``k`` and follow the tour from there for ``max_travel`` metres.
+
+        Records the estimate after each step that updated it (after every scan with ``every_scan``).
+        """
         pts, pose = tour_from(self.world, k)
         place(self.sim, pose, self.seed * 1000 + k)
         start = self.travelled
@@ -71,16 +75,17 @@ class Drive:
         odom0 = self.sim.robot.odometry_pose
         prev = None
         updates: list[Update] = []
-        for frame in self.sim.tour(waypoints=np.vstack([pts, pts[:1]])):
+        for scans, frame in enumerate(self.sim.tour(waypoints=np.vstack([pts, pts[:1]]))):
             if prev is not None:
                 self.travelled += float(np.hypot(*(frame.true_pose[:2] - prev[:2])))
             prev = frame.true_pose
             odom = relative(odom0, frame.odometry_pose)
             fed = odom if base is None else compose(base, odom)
             self._odom_fed = fed
-            if self.mcl.step(fed, frame.scan):
+            if self.mcl.step(fed, frame.scan) or every_scan:
                 e = self.mcl.estimate()
-                u = Update(self.travelled - start, float(np.hypot(*(e.pose[:2] - frame.true_pose[:2]))),
+                u = Update(self.travelled - start, scans / SENSING_HZ,
+                           float(np.hypot(*(e.pose[:2] - frame.true_pose[:2]))),
                            float(abs(wrap_angle(e.pose[2] - frame.true_pose[2]))), e.localized)
                 updates.append(u)
                 if stop is not None and stop(updates):

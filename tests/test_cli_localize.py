@@ -2,11 +2,14 @@
 
 import numpy as np
 import pytest
+from PIL import Image
 
 from app.cli import main
 from slam_core.geometry import wrap_angle
 from slam_core.io.carmen import laser_records
+from slam_core.io.ros_map import load_map
 from slam_core.io.trajectory import Trajectory
+from slam_core.localization.picture import LOCALIZED, NOT_LOCALIZED
 from slam_core.sim.record import record_tour
 from slam_core.sim.simulator import SimConfig
 from slam_core.sim.world import load_world
@@ -27,6 +30,11 @@ def test_localize_writes_one_pose_per_scan_close_to_the_truth(recording, tmp_pat
     assert code == 0
     out = capsys.readouterr().out
     assert "first localized at scan" in out
+    assert "localized rate: 100.0% of scans; lost 0 times" in out
+    picture = np.asarray(Image.open(tmp_path / "localization.png").convert("RGB"))
+    assert picture.shape[:2] == load_map(rec.map_yaml).shape
+    assert (picture == LOCALIZED).all(axis=2).sum() > 20  # the track, drawn as localized
+    assert not (picture == NOT_LOCALIZED).all(axis=2).any()
     traj = Trajectory.load(tmp_path / "trajectory.txt")
     truth = Trajectory.load(rec.ground_truth)
     assert traj.stamps == truth.stamps == [r.stamp.ipc_text for r in laser_records(rec.log)]
@@ -48,3 +56,21 @@ def test_localize_reports_a_missing_map(recording, tmp_path, capsys):
     code = main(["localize", str(rec.log), "--map", str(tmp_path / "nope.yaml"), "--out", str(tmp_path)])
     assert code == 2
     assert "nope.yaml" in capsys.readouterr().err
+
+
+def test_run_picture_marks_where_the_robot_was_lost(tmp_path):
+    from slam_core.localization.picture import LOST, save_run_png
+    from slam_core.occupancy_grid import OccupancyGrid
+
+    grid = OccupancyGrid(0.1, origin=(0.0, 0.0), shape=(40, 60))
+    poses = np.column_stack([np.linspace(0.5, 5.5, 50), np.full(50, 2.0), np.zeros(50)])
+    flags = np.ones(50, bool)
+    flags[20:30] = False
+    picture = np.asarray(Image.open(save_run_png(grid, poses, flags, tmp_path / "p.png")).convert("RGB"))
+    lost = np.argwhere((picture == LOST).all(axis=2))
+    assert len(lost) > 0
+    # the red ring sits where the flag dropped: scan 20, x = 0.5 + 20 * 5 / 49 m
+    assert abs(lost[:, 1].mean() - (0.5 + 20 * 5 / 49) / 0.1) < 2
+    assert (picture == NOT_LOCALIZED).all(axis=2).any()
+    with pytest.raises(ValueError, match="localized flags"):
+        save_run_png(grid, poses, flags[:3], tmp_path / "q.png")

@@ -1,4 +1,9 @@
-"""``homebot localize LOG --map MAP.yaml [--global | --initial x,y,theta] --out DIR``."""
+"""``homebot localize LOG --map MAP.yaml [--global | --initial x,y,theta] --out DIR``.
+
+Writes the per-scan trajectory and ``localization.png`` (the map, the trajectory
+coloured by the localized flag, rings where the robot was lost and found again)
+and prints how often it was localized and how often it was lost.
+"""
 
 from __future__ import annotations
 
@@ -11,6 +16,7 @@ from app.cli.progress import fraction_bar
 from slam_core.datasets import resolve_log
 from slam_core.io.ros_map import load_map
 from slam_core.localization.mcl import SENSOR_MODELS, MclConfig
+from slam_core.localization.picture import save_run_png
 from slam_core.localization.replay import replay_log
 
 
@@ -72,6 +78,11 @@ def run(args) -> int:
     if n == 0:
         raise ValueError(f"{log}: no laser records to localize" + "".join(f"; {w}" for w in result.warnings))
     traj = result.trajectory.save(args.out / "trajectory.txt")
+    flags = result.localized
+    lost = int(np.sum(flags[:-1] & ~flags[1:]))
+    rate = 100 * float(flags.mean()) if len(flags) else 0.0
+    png = save_run_png(grid, result.trajectory.poses, flags, args.out / "localization.png",
+                       caption=f"{log.name}: localized {rate:.1f}% of scans, lost {lost}x")
     for warning in result.warnings:
         print(f"warning: {warning}")
     per_update = 1e3 * float(np.mean(result.update_seconds)) if result.update_seconds else 0.0
@@ -82,7 +93,7 @@ def run(args) -> int:
         print("never localized")
     else:
         print(f"first localized at scan {result.first_localized} "
-              f"({result.seconds_to_localized:.1f} s of log time); localized in "
-              f"{100 * result.localized.mean():.0f}% of scans")
-    print(f"wrote {traj}")
+              f"({result.seconds_to_localized:.1f} s of log time)")
+    print(f"localized rate: {rate:.1f}% of scans; lost {lost} times")
+    print(f"wrote {traj}, {png}")
     return 0

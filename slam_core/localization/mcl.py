@@ -12,9 +12,10 @@ The published pose is the tracked one (:mod:`slam_core.localization.tracking`:
 odometry, then scan-to-map matching on every scan) while there is a track, else
 the weighted mean of the heaviest particle cluster. The filter runs on its own
 and checks the track: a track starts from a known pose or from the converged
-main cluster, and restarts there when the converged cloud disagrees with it.
-While the track holds no random particles are injected, and the robot is
-*localized*.
+main cluster, and moves there when the converged cloud disagrees with it and
+the scan fits there at least as well.
+While the track holds no random particles are injected, and once it is
+confirmed the robot is *localized*.
 """
 
 from __future__ import annotations
@@ -59,6 +60,9 @@ class MclConfig:
     #: Augmented MCL averaging rates (0 < alpha_slow << alpha_fast); alpha_slow = 0 disables recovery.
     alpha_slow: float = 0.02
     alpha_fast: float = 0.3
+    #: The beams of one scan share the map's errors: their joint log-likelihood is weighed as this
+    #: many independent beams (a tempered likelihood; the cloud does not collapse on one scan).
+    effective_beams: float = 10.0
     #: Beams scored per scan (evenly spaced) and the sensor model.
     max_beams: int = 60
     sensor_model: str = "likelihood_field"
@@ -70,7 +74,8 @@ class MclConfig:
     #: Clustering for the published pose: bin size in x, y (m) and number of heading bins.
     cluster_xy: float = 0.5
     cluster_theta_bins: int = 12
-    #: "localized" when the main cluster carries this much weight and its spread is this small.
+    #: The cloud has converged when its main cluster carries this much weight and its spread is
+    #: this small ...
     localized_weight: float = 0.9
     localized_xy_std: float = 0.15
     localized_theta_std: float = np.radians(8.0)
@@ -79,9 +84,11 @@ class MclConfig:
     localized_max_injection: float = 0.3
     localized_min_updates: int = 5
     tracking: TrackingConfig = field(default_factory=TrackingConfig)
-    #: A converged cloud this far (m, rad) from the track restarts the track at the cloud.
+    #: A converged cloud this far (m, rad) from the track is checked against it (see ``_track``).
     disagree_xy: float = 0.3
     disagree_theta: float = np.radians(6.0)
+    #: Filter updates a converged cloud may sit where the scan fits badly before a global restart.
+    relocalize_after: int = 10
 
     def __post_init__(self):
         if not 1 <= self.min_particles <= self.max_particles:
@@ -130,6 +137,7 @@ class MonteCarloLocalizer:
         self._last_odom: np.ndarray | None = None
         self._estimate: Estimate | None = None
         self.tracker = PoseTracker(self.map, self.config.tracking)
+        self._badly_converged = 0
         self.filter_updated = False
         self.status = MclStatus(0, 0.0, False, 0.0, 0.0, 0.0, 0)
         if initial_pose is None:
@@ -166,6 +174,7 @@ class MonteCarloLocalizer:
         self.updates_since_reset = 0
         self.w_slow = 0.0
         self.w_fast = 0.0
+        self._badly_converged = 0
         self._estimate = None
 
     # -- the filter -----------------------------------------------------------------------
@@ -199,17 +208,37 @@ class MonteCarloLocalizer:
         return True
 
     def _track(self, scan: Scan, filter_updated: bool) -> None:
-        """Match the tracked pose; (re)start the track from the cloud when it converged elsewhere."""
+        """Match the tracked pose, and settle it with the filter after each filter update.
+
+        A converged cloud that the track disagrees with wins when the scan fits the map
+        there at least as well as at the track (the filter weighs many scans, the track
+        one), or well (``start_fit``). Without a track, a converged cloud starts one
+        where the scan fits well; a cloud that stays converged where it fits badly for
+        ``relocalize_after`` updates is wrong, and the filter starts over globally, as
+        it does when the track is lost (a kidnapping) where the cloud does not fit well
+        either.
+        """
         cfg = self.config
         points = tracking_points(scan, cfg.laser_pose, cfg.tracking.beams, cfg.tracking.max_range)
         if self.tracker.tracking:
             self.tracker.correct(points)
-        if filter_updated and self._converged():
-            mean = self.main_cluster().pose
-            if self.tracker.tracking and self._disagrees(mean, self.tracker.pose):
-                self.tracker.lose()
-            if not self.tracker.tracking:
-                self.tracker.try_start(mean, points)
+            if not self.tracker.tracking:  # lost (or carried off): the cloud's pose, or start over
+                if not (self._converged() and self.tracker.try_start(self.main_cluster().pose, points)):
+                    self.global_localization()
+                return
+        if not filter_updated or not self._converged():
+            return
+        mean = self.main_cluster().pose
+        if self.tracker.tracking:
+            if self._disagrees(mean, self.tracker.pose):
+                self.tracker.try_switch(mean, points)
+            self._badly_converged = 0
+        elif self.tracker.try_start(mean, points):
+            self._badly_converged = 0
+        else:
+            self._badly_converged += 1
+            if self._badly_converged >= cfg.relocalize_after:
+                self.global_localization()
 
     def _converged(self) -> bool:
         """The cloud has one tight dominant cluster and is not busy injecting random guesses."""
@@ -251,7 +280,7 @@ class MonteCarloLocalizer:
         injection = max(0.0, 1.0 - self.w_fast / self.w_slow) if cfg.alpha_slow > 0 else 0.0
         if self.tracker.tracking and self.tracker.misses == 0:
             injection = 0.0  # the map explains the scans: no random guesses
-        log_w = np.log(self.weights) + log_lik
+        log_w = np.log(self.weights) + log_lik * (cfg.effective_beams / used)
         w = np.exp(log_w - log_w.max())
         self.weights = w / w.sum()
         neff = effective_sample_size(self.weights)
@@ -283,13 +312,15 @@ class MonteCarloLocalizer:
         return main_cluster(self.particles, self.weights, cfg.cluster_xy, cfg.cluster_theta_bins)
 
     def estimate(self) -> Estimate:
-        """The tracked pose while there is a track (``localized``), else the main cluster's mean."""
+        """The tracked pose while there is a track, else the main cluster's mean; ``localized``
+        while the track is confirmed and the last scan fitted."""
         if self._estimate is None:
             c = self.main_cluster()
             tracking = self.tracker.tracking
             pose = self.tracker.pose.copy() if tracking else c.pose
             self._estimate = Estimate(pose=pose, covariance=c.covariance, particles=self.particles,
-                                      weights=self.weights, localized=tracking)
+                                      weights=self.weights, localized=tracking and self.tracker.confirmed
+                                      and self.tracker.misses == 0)
         return self._estimate
 
     def occupancy_map(self) -> OccupancyGrid:

@@ -12,7 +12,8 @@ over the beams b with ``D(e_b) < cutoff`` (trimmed least squares: an endpoint
 farther than ``cutoff`` from any wall is a person, a door that moved or a wrong
 guess, and does not pull). The prior on the start pose (weights ``w`` from the
 caller, see :func:`prior_weights`) decides the directions the scan leaves open
-(along a featureless corridor). Steps:
+(along a featureless corridor); the beams of one scan share the map's errors, so
+they count as ``EFFECTIVE_BEAMS`` independent ones against it. Steps:
 
 1. project the endpoints with the current pose;
 2. Gauss-Newton: ``H = sum J^T J + diag(w)``, ``g = sum J^T D + w (pose - start)``,
@@ -50,6 +51,8 @@ FIT_DISTANCE = 0.1
 FIT_PER_METRE = 0.01
 #: The standard deviation of one beam's distance to the wall (m), the unit of the prior's weights.
 BEAM_SIGMA = 0.05
+#: Beams of one scan share the map's errors: together they count as this many independent ones.
+EFFECTIVE_BEAMS = 20
 #: Default prior when the caller gives none: 0.1 m and 0.05 rad standard deviation.
 DEFAULT_PRIOR = ((BEAM_SIGMA / 0.1) ** 2, (BEAM_SIGMA / 0.05) ** 2)
 #: The correlative search scores a beam ``max(0, 1 - D / SEARCH_REACH)``.
@@ -133,12 +136,13 @@ def _match(distance, origin_x, origin_y, res, x, y, th, bx, by, iterations, cuto
         used, _ = _normal_equations(distance, origin_x, origin_y, res, x, y, th, bx, by, cutoff, h, g)
         if used < 3:
             break
-        h[0, 0] += prior_xy
-        h[1, 1] += prior_xy
-        h[2, 2] += prior_th
-        g[0] += prior_xy * (x - x0)
-        g[1] += prior_xy * (y - y0)
-        g[2] += prior_th * (th - th0)
+        scale = used / EFFECTIVE_BEAMS
+        h[0, 0] += scale * prior_xy
+        h[1, 1] += scale * prior_xy
+        h[2, 2] += scale * prior_th
+        g[0] += scale * prior_xy * (x - x0)
+        g[1] += scale * prior_xy * (y - y0)
+        g[2] += scale * prior_th * (th - th0)
         step = np.linalg.solve(h, -g)
         step[0] = min(max(step[0], -MAX_STEP_XY), MAX_STEP_XY)
         step[1] = min(max(step[1], -MAX_STEP_XY), MAX_STEP_XY)

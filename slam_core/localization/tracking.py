@@ -10,14 +10,19 @@ does the former on every scan:
    prediction by a prior whose spread grows with the odometry's motion since the
    last accepted match (a robot that stands still does not slide along a corridor);
 3. *judge*: the match is accepted when the map explains at least ``min_fit`` of
-   the beams (see :mod:`slam_core.localization.scan_to_map`). Otherwise a
-   correlative search around the prediction (``search_xy``, ``search_theta``:
-   odometry that stalled, then caught up) gets a chance; a scan that neither
-   explains keeps the predicted pose, and after ``patience`` of them in a row the
-   track is *lost* and the particle filter decides again.
+   the beams (see :mod:`slam_core.localization.scan_to_map`) and ``keep_ratio``
+   of the track's usual fit. Below that, or when the fit drops by
+   ``search_on_drop``, a correlative search around the prediction (``search_xy``,
+   ``search_theta``: odometry that stalled, then caught up) gets a chance; a scan
+   that neither explains keeps the predicted pose, and after ``patience`` of them
+   in a row the track is *lost* and the particle filter decides again.
 
-The tracker is (re)started from a pose the caller trusts: a known start, or the
-particle filter's main cluster once it has converged and matches well there.
+The tracker is (re)started from a known start, or from the particle filter's main
+cluster once it has converged and matches well there. A track started from the
+filter is *confirmed* only after ``confirm_travel`` metres of odometry during
+which its usual fit stayed at least ``start_fit`` (it is dropped as soon as it
+does not): in a look-alike corridor the filter can converge on the wrong one
+while the robot barely moves.
 """
 
 from __future__ import annotations
@@ -36,13 +41,23 @@ from slam_core.scan import Scan
 class TrackingConfig:
     """When a match is good enough, how long a track survives bad ones, and which beams it uses."""
 
-    #: Fraction of the beams the map must explain for a match to be accepted.
+    #: Fraction of the beams the map must explain for a match to be accepted, and the fraction of
+    #: the track's usual fit (a running mean, rate ``usual_rate``) it must keep: a robot carried
+    #: elsewhere still fits a rectilinear home by half, but far worse than it used to.
     min_fit: float = 0.35
+    keep_ratio: float = 0.6
+    usual_rate: float = 0.1
+    #: ... and for a track to start from a pose the particle filter proposes.
+    start_fit: float = 0.8
+    #: Odometry travel (m) a track started by the filter must survive before it is confirmed.
+    confirm_travel: float = 3.0
     #: Rejected scans in a row after which the track is lost.
-    patience: int = 10
+    patience: int = 5
     #: Beams matched per scan (evenly spaced over the valid ones) and the range cap (m).
     beams: int = 180
     max_range: float = 30.0
+    #: The fallback search also runs when the fit drops by this much from the previous scan's.
+    search_on_drop: float = 0.2
     #: Half-widths (m, rad) and heading step (rad) of the fallback search.
     search_xy: float = 0.3
     search_theta: float = np.radians(90.0)
@@ -57,8 +72,10 @@ class TrackingConfig:
     prior_theta_per_rad: float = 0.2
 
     def __post_init__(self):
-        if not 0 < self.min_fit <= 1 or self.patience < 1 or self.beams < 3 or self.max_range <= 0:
-            raise ValueError(f"need 0 < min_fit <= 1, patience >= 1, beams >= 3, max_range > 0; got {self}")
+        if not 0 < self.min_fit <= self.start_fit <= 1 or self.patience < 1 or self.beams < 3 \
+                or self.max_range <= 0:
+            raise ValueError(f"need 0 < min_fit <= start_fit <= 1, patience >= 1, beams >= 3, "
+                             f"max_range > 0; got {self}")
 
 
 def tracking_points(scan: Scan, laser_pose, beams: int, max_range: float) -> np.ndarray:
@@ -81,9 +98,12 @@ class PoseTracker:
         self.matcher = ScanToMapMatcher(known_map)
         self.pose: np.ndarray | None = None
         self.fit = 0.0
+        self.usual_fit: float | None = None  # running mean of the accepted fits
         self.misses = 0
         self._odom: np.ndarray | None = None
         self._moved = np.zeros(2)  # odometry distance and turn since the last accepted match
+        self._unconfirmed_travel = 0.0  # odometry travel since an unconfirmed start
+        self.confirmed = False
 
     @property
     def tracking(self) -> bool:
@@ -95,6 +115,9 @@ class PoseTracker:
             step = relative(self._odom, odom)
             self.pose = compose(self.pose, step)
             self._moved += (np.hypot(step[0], step[1]), abs(step[2]))
+            if not self.confirmed:
+                self._unconfirmed_travel += float(np.hypot(step[0], step[1]))
+                self.confirmed = self._unconfirmed_travel >= self.config.confirm_travel
         self._odom = np.array(odom, dtype=np.float64)
 
     def correct(self, points: np.ndarray) -> MatchResult | None:
@@ -106,35 +129,52 @@ class PoseTracker:
         prior = prior_weights(cfg.prior_xy + cfg.prior_xy_per_m * dist + cfg.prior_xy_per_rad * turn,
                               cfg.prior_theta + cfg.prior_theta_per_m * dist + cfg.prior_theta_per_rad * turn)
         result = self.matcher.match(self.pose, points, prior)
-        if result.fit < cfg.min_fit:
+        usual = result.fit if self.usual_fit is None else self.usual_fit
+        needed = max(cfg.min_fit, cfg.keep_ratio * usual)
+        if result.fit < max(needed, usual - cfg.search_on_drop):
             wide = self.matcher.search(self.pose, points, cfg.search_xy, cfg.search_theta, cfg.search_step,
                                        prior)
             result = wide if wide.fit > result.fit else result
-        if result.fit >= cfg.min_fit:
-            self.pose, self.fit, self.misses = result.pose, result.fit, 0
+        self.fit = result.fit
+        if result.fit >= needed:
+            self.pose, self.misses = result.pose, 0
+            self.usual_fit = usual + cfg.usual_rate * (result.fit - usual)
             self._moved[:] = 0.0
         else:
-            self.fit = result.fit
             self.misses += 1
-            if self.misses >= self.config.patience:
-                self.lose()
+        if self.misses >= cfg.patience or (not self.confirmed and self.usual_fit < cfg.start_fit):
+            self.lose()
         return result
 
     def try_start(self, pose, points: np.ndarray) -> bool:
-        """Start a track at ``pose`` refined by a match, if the map explains the scan there."""
+        """Start the track at ``pose`` refined by a match, if the map explains the scan well there
+        (``start_fit``)."""
+        return self._start_if(pose, points, self.config.start_fit, confirmed=False)
+
+    def try_switch(self, pose, points: np.ndarray) -> bool:
+        """Move the track to ``pose`` refined by a match, if the scan fits there well or as well as
+        here (a correction of the track: it stays confirmed if it was)."""
+        return self._start_if(pose, points, min(self.config.start_fit, self.fit), self.confirmed)
+
+    def _start_if(self, pose, points: np.ndarray, min_fit: float, confirmed: bool) -> bool:
         result = self.matcher.match(pose, points)
-        if result.fit < self.config.min_fit:
+        if result.fit < min_fit:
             return False
-        self.pose, self.fit, self.misses = result.pose, result.fit, 0
+        self.pose, self.fit, self.usual_fit, self.misses = result.pose, result.fit, result.fit, 0
         self._moved[:] = 0.0
+        self._unconfirmed_travel = 0.0
+        self.confirmed = confirmed
         return True
 
     def start(self, pose) -> None:
         """Track from ``pose`` as given (a known start)."""
         self.pose = np.array(pose, dtype=np.float64)
+        self.usual_fit = None
         self.misses = 0
         self._moved[:] = 0.0
+        self.confirmed = True
 
     def lose(self) -> None:
         self.pose = None
         self.misses = 0
+        self.confirmed = False
