@@ -65,3 +65,38 @@ def drifted(truth: np.ndarray, turn_bias: float, scale: float = 1.0) -> np.ndarr
     for s in steps:
         out.append(compose(out[-1], s))
     return np.array(out)
+
+
+def twin_corridors(length=30.0, corridor=2.5, apart=8.0, seed=1) -> np.ndarray:
+    """Two identical corridors ``apart`` m from each other (the second is the first moved
+    north), both open at the west end into a connecting corridor, with the same boxes."""
+    rng = np.random.default_rng(seed)
+    boxes = []
+    at = 2.0
+    while at < length - 2.0:
+        w, d = rng.uniform(0.3, 1.0), rng.uniform(0.2, 0.5)
+        south = rng.random() < 0.5
+        boxes.append((at, 0.0 if south else corridor - d, w, d))
+        at += w + rng.uniform(1.5, 4.0)
+    segments = []
+    for dy in (0.0, apart):
+        segments += [[0, dy, length, dy], [length, dy, length, dy + corridor],
+                     [length, dy + corridor, 0, dy + corridor]]
+        segments += [s for x, y, w, d in boxes for s in box(x, y + dy, w, d)]
+    # the connector west of both: its east wall has the two corridors' openings
+    segments += [[-3.0, -0.0, -3.0, apart + corridor], [-3.0, 0.0, 0.0, 0.0],
+                 [-3.0, apart + corridor, 0.0, apart + corridor], [0.0, corridor, 0.0, apart]]
+    return np.array(segments, float)
+
+
+def twin_tour(length=30.0, corridor=2.5, apart=8.0, step=0.4) -> np.ndarray:
+    """Down the first corridor and back, through the connector, down the second."""
+    c = corridor / 2
+    legs = [((0.5, c), (length - 2.0, c)), ((length - 2.0, c), (-1.5, c)), ((-1.5, c), (-1.5, apart + c)),
+            ((-1.5, apart + c), (length - 2.0, apart + c))]
+    poses = []
+    for (x0, y0), (x1, y1) in legs:
+        n = int(np.ceil(np.hypot(x1 - x0, y1 - y0) / step))
+        th = np.arctan2(y1 - y0, x1 - x0)
+        poses += [(x0 + (x1 - x0) * k / n, y0 + (y1 - y0) * k / n, th) for k in range(n)]
+    return np.array(poses)

@@ -5,11 +5,12 @@ import numpy as np
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from slam_core.geometry import compose, relative, wrap_angle
+from slam_core.geometry import wrap_angle
 from slam_core.graph.config import LoopClosureConfig
 from slam_core.graph.loop_closure import close_loops, scan_poses
 from slam_core.graph.wide_search import field_pyramid, wide_search
 from slam_core.rbpf.correlative import bounded_search, max_pool, search
+from tests.large_world import drifted
 from tests.synthetic_room import room_scan
 
 CONFIG = LoopClosureConfig(submap_updates=10, min_loop_path=4.0)
@@ -21,16 +22,6 @@ def two_laps(n=160):
     x, y = 0.5 + 2.0 * np.cos(t), 0.4 + 1.3 * np.sin(t)
     th = np.arctan2(np.gradient(y), np.gradient(x))
     return np.column_stack([x, y, th])
-
-
-def drifted(truth, turn_bias=0.002, scale=1.01):
-    """The same path as a filter with a heading bias would report it (locally right, globally bent)."""
-    steps = relative(truth[:-1], truth[1:]) * np.array([scale, scale, 1.0])
-    steps[:, 2] += turn_bias
-    out = [truth[0].copy()]
-    for s in steps:
-        out.append(compose(out[-1], s))
-    return np.array(out)
 
 
 def errors(truth, poses):
@@ -64,7 +55,7 @@ def test_max_pool_is_the_maximum_over_each_block():
 
 def test_loops_close_on_a_drifted_trajectory():
     truth = two_laps()
-    bent = drifted(truth)
+    bent = drifted(truth, turn_bias=0.002, scale=1.01)
     rng = np.random.default_rng(0)
     scans = [room_scan(p, 360, noise=0.01, rng=rng) for p in truth]
     result, _ = close_loops(bent, scans, CONFIG)

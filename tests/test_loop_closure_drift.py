@@ -6,9 +6,9 @@ import pytest
 
 from slam_core.geometry import compose, relative, wrap_angle
 from slam_core.graph.config import LoopClosureConfig
-from slam_core.graph.loop_closure import ChainDrift, close_loops
+from slam_core.graph.loop_closure import ChainDrift, close_loops, robust_solve
 from slam_core.scan import Scan
-from tests.large_world import drifted, ring_tour, ring_world
+from tests.large_world import drifted, ring_tour, ring_world, twin_corridors, twin_tour
 from tests.synthetic_room import cast
 
 ANGLES = np.linspace(-np.pi, np.pi, 360, endpoint=False)
@@ -33,7 +33,7 @@ def ring():
 
 def test_a_long_loop_closes_after_metres_of_drift(ring):
     truth, scans = ring
-    bent = drifted(truth, turn_bias=0.0005)
+    bent = drifted(truth, turn_bias=0.0004)  # 9.5 deg of heading at the return
     lap = len(truth) - 50  # the last 50 poses retrace the first 50
     before = distance(truth, bent)
     assert before[lap:].mean() > 4.0  # the return is metres off
@@ -70,3 +70,38 @@ def test_the_search_window_is_the_drift_the_chain_noise_lets_accumulate():
     assert across > 1.0  # metres: far more than the narrow window
     assert abs(linear[0] - across) < 0.1 * across, (linear, across)
     assert abs(angular[0] - heading) < 0.1 * heading, (angular, heading)
+
+
+def test_two_identical_corridors_close_no_false_loop():
+    truth = twin_tour()  # down corridor A and back, through the connector, down its twin B
+    scans = scans_along(truth, twin_corridors(), seed=1)
+    bent = drifted(truth, turn_bias=0.0005)
+    result, _ = close_loops(bent, scans, CONFIG)
+    in_a = truth[:, 1] < 2.5
+    in_b = truth[:, 1] > 8.0
+    wrong = [(i, j) for i, j in result.loop_pairs if in_a[i] != in_a[j] or in_b[i] != in_b[j]]
+    assert result.loop_edges > 20  # A's return leg closes on its first
+    assert wrong == []
+    after = distance(truth, result.poses)
+    assert after[in_b].max() < 1.5 * distance(truth, bent)[in_b].max()  # B is not pulled onto A
+    assert distance(result.poses[in_b], truth[in_b]).min() < 1.0
+
+
+def test_the_robust_back_end_drops_false_loop_edges_fed_to_it(ring):
+    """True loop edges (from the ground truth) and false ones (the scan matched a metre or
+    more off, as in a look-alike place): the false ones are dropped, the loop still closes."""
+    truth, _ = ring
+    bent = drifted(truth, turn_bias=0.0005)
+    rng = np.random.default_rng(7)
+    lap = len(truth) - 50
+    info = np.diag([400.0, 400.0, 4000.0])
+    edges = {(k, lap + k): (relative(truth[k], truth[lap + k]), info) for k in range(0, 50, 2)}
+    false = {}
+    for k in range(1, 50, 6):
+        off = np.append(rng.uniform(-3, 3, 2), rng.uniform(-0.2, 0.2))
+        off[:2] += np.sign(off[:2]) * 1.0
+        false[(k, lap + k)] = (compose(relative(truth[k], truth[lap + k]), off), info)
+    chain = np.broadcast_to(np.diag([2500.0, 2500.0, 1e5]), (len(truth) - 1, 3, 3))
+    poses, dropped = robust_solve(bent, chain, {**edges, **false}, CONFIG.outlier_chi2)
+    assert set(dropped) == set(false)
+    assert distance(poses[lap:], poses[:50]).max() < 0.15

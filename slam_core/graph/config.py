@@ -56,7 +56,7 @@ class LoopClosureConfig:
     refine_fit: float = 0.6
     refine_beams: int = 720
     wide_every: int = 5
-    window_sigmas: float = 3.0
+    window_sigmas: float = 2.0
     max_linear_window: float = 20.0
     max_angular_window: float = 0.5
     wide_candidates: int = 3

@@ -31,7 +31,7 @@ import os
 import threading
 from collections import OrderedDict
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -55,12 +55,14 @@ BLOCK_CELLS = 4
 
 @dataclass
 class LoopClosureResult:
-    """The optimised poses of the updates and what the search did."""
+    """The optimised poses of the updates and what the search did; ``loop_pairs`` are the
+    kept loop edges as ``(submap anchor, update)``."""
 
     poses: np.ndarray
     loop_edges: int = 0
     rejected_edges: int = 0
     candidates_tried: int = 0
+    loop_pairs: list[tuple[int, int]] = field(default_factory=list)
 
     def stats(self) -> dict:
         return {"loop_edges": self.loop_edges, "rejected_loop_edges": self.rejected_edges,
@@ -190,7 +192,7 @@ def close_loops(poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig 
     chain = _chain_information(poses, config)
     drift = ChainDrift(poses, path, config)
     estimate = poses.copy()
-    edges: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
+    edges: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}  # (anchor, update): (z, info)
     tried_wide: set[tuple[int, int]] = set()
     narrow = (config.linear_window, config.angular_window)
 
@@ -216,24 +218,18 @@ def close_loops(poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig 
         with ThreadPoolExecutor(os.cpu_count() or 1) as pool:
             for s, found in pool.map(lambda item: try_submap(*item, estimate), sorted(pairs.items())):
                 for q, z, info in found:
-                    edges[(s, q)] = (z, info)
-        graph = _graph(poses, chain, submaps, edges)
-        estimate = optimize(graph)
-        loops = np.arange(n - 1, graph.n_edges)
-        bad = loops[graph.chi2(estimate)[loops] > config.outlier_chi2]
-        if len(bad):
-            keys = list(edges)
-            for k in bad:
-                del edges[keys[k - (n - 1)]]
-            result.rejected_edges += len(bad)
-            estimate = optimize(_graph(poses, chain, submaps, edges))
+                    edges[(int(submaps.anchors[s]), q)] = (z, info)
+        estimate, dropped = robust_solve(poses, chain, edges, config.outlier_chi2)
+        for key in dropped:
+            del edges[key]
+        result.rejected_edges += len(dropped)
         return estimate
 
     for _ in range(config.rounds):
         pairs: dict[int, list[tuple[int, float, float]]] = {}
         for q in range(n):
             for s in _candidates(q, estimate, path, submaps, config):
-                if (s, q) not in edges:
+                if (int(submaps.anchors[s]), q) not in edges:
                     pairs.setdefault(s, []).append((q, *narrow))
         estimate = search_and_solve(pairs, estimate)
         linked = {q for _, q in edges}
@@ -248,6 +244,7 @@ def close_loops(poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig 
         estimate = search_and_solve(pairs, estimate)
     result.poses = mount.robot_poses(estimate)
     result.loop_edges = len(edges)
+    result.loop_pairs = list(edges)
     return result, submaps
 
 
@@ -342,11 +339,28 @@ def _chain_information(poses: np.ndarray, config: LoopClosureConfig) -> np.ndarr
     return info
 
 
-def _graph(poses, chain, submaps: Submaps, edges) -> PoseGraph:
+def robust_solve(poses: np.ndarray, chain: np.ndarray, edges: dict, outlier_chi2: float
+                 ) -> tuple[np.ndarray, list[tuple[int, int]]]:
+    """Optimise the chain of ``poses`` (information ``chain`` per step) with the loop
+    ``edges`` ``{(i, j): (z, information)}`` (pose ``j`` seen from pose ``i``, Huber-robust),
+    drop the loop edges whose error then exceeds ``outlier_chi2`` and optimise again.
+    Returns the poses and the dropped edges' keys."""
+    graph = _graph(poses, chain, edges)
+    estimate = optimize(graph)
+    n = len(poses)
+    loops = np.arange(n - 1, graph.n_edges)
+    keys = list(edges)
+    dropped = [keys[k - (n - 1)] for k in loops[graph.chi2(estimate)[loops] > outlier_chi2]]
+    if dropped:
+        estimate = optimize(_graph(poses, chain, {k: v for k, v in edges.items() if k not in dropped}))
+    return estimate, dropped
+
+
+def _graph(poses, chain, edges) -> PoseGraph:
     graph = PoseGraph(poses)
     chain_edges(graph, poses, chain)
-    for (s, q), (z, info) in edges.items():
-        graph.add_edge(int(submaps.anchors[s]), q, z, info, robust=True)
+    for (i, j), (z, info) in edges.items():
+        graph.add_edge(i, j, z, info, robust=True)
     return graph
 
 

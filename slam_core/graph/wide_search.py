@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from slam_core.jit import njit
-from slam_core.rbpf.correlative import endpoint_cells
+from slam_core.rbpf.correlative import pooled_bound, rotated_endpoint_cells
 
 #: Levels of the pyramid above the field (blocks of up to ``2 ** LEVELS`` cells).
 LEVELS = 6
@@ -46,25 +46,6 @@ def field_pyramid(field, levels):
 
 
 @njit
-def _bound(level, block, cells_x, cells_y, dx, dy):
-    """Sum of the pooled ``level`` at the cells shifted by ``(dx, dy)``: an upper bound of the
-    score of every offset of the ``block``-sized block starting there (a block that starts
-    before the field's first row or column is bounded by the pooled cell at the edge)."""
-    size_y, size_x = level.shape
-    total = 0.0
-    for b in range(cells_x.shape[0]):
-        xx = cells_x[b] + dx
-        yy = cells_y[b] + dy
-        if -block < xx < 0:
-            xx = 0
-        if -block < yy < 0:
-            yy = 0
-        if 0 <= xx < size_x and 0 <= yy < size_y:
-            total += level[yy, xx]
-    return total
-
-
-@njit
 def wide_search(pyramid, resolution, window_x, window_y, px, py, pth, points, angular_half,
                 angular_step, linear_cells, min_score):
     """The best pose ``(x, y, th, score)`` within ``+-linear_cells`` and ``+-angular_half`` of
@@ -72,15 +53,9 @@ def wide_search(pyramid, resolution, window_x, window_y, px, py, pth, points, an
     ``score`` is ``-1`` when no pose does. ``pyramid`` is ``field_pyramid(field, ...)``, the
     field's lower-left corner at ``(window_x, window_y)``."""
     levels = pyramid.shape[0] - 1
-    n_rot = int(np.floor(angular_half / angular_step + 0.5))
+    n_rot, cells_x, cells_y = rotated_endpoint_cells(px, py, pth, points, window_x, window_y, resolution,
+                                                     angular_half, angular_step)
     rotations = 2 * n_rot + 1
-    n_pts = points.shape[0]
-    cells_x = np.empty((rotations, n_pts), np.int64)
-    cells_y = np.empty((rotations, n_pts), np.int64)
-    inv = 1.0 / resolution
-    for r in range(rotations):
-        endpoint_cells(px, py, pth + (r - n_rot) * angular_step, points, window_x, window_y, inv, cells_x[r],
-               cells_y[r])
     width = 2 * linear_cells + 1
     top = 1 << levels
     blocks = (width + top - 1) // top
@@ -95,7 +70,7 @@ def wide_search(pyramid, resolution, window_x, window_y, px, py, pth, points, an
     for r in range(rotations):
         for by in range(blocks):
             for bx in range(blocks):
-                bounds[(r * blocks + by) * blocks + bx] = _bound(
+                bounds[(r * blocks + by) * blocks + bx] = pooled_bound(
                     pyramid[levels], top, cells_x[r], cells_y[r], bx * top - linear_cells,
                     by * top - linear_cells)
     sp = 0
@@ -132,7 +107,7 @@ def wide_search(pyramid, resolution, window_x, window_y, px, py, pth, points, an
                 if x - (-linear_cells) < width and y - (-linear_cells) < width:
                     child_x[n] = x
                     child_y[n] = y
-                    child_bound[n] = _bound(pyramid[level - 1], half, cells_x[r], cells_y[r], x, y)
+                    child_bound[n] = pooled_bound(pyramid[level - 1], half, cells_x[r], cells_y[r], x, y)
                     n += 1
         for k in np.argsort(child_bound[:n]):
             if child_bound[k] > best:

@@ -69,7 +69,7 @@ def _score(field, cells_x, cells_y, dx, dy):
 
 
 @njit
-def _bound(pooled, block, cells_x, cells_y, dx, dy):
+def pooled_bound(pooled, block, cells_x, cells_y, dx, dy):
     """An upper bound of ``_score`` over the offsets ``dx .. dx + block - 1`` (and the same in y):
     the sum of ``pooled = max_pool(field, block)``. A block that starts before the field's
     first row or column is bounded by the pooled cell at the edge, which covers its part
@@ -98,6 +98,21 @@ def endpoint_cells(px, py, th, points, window_x, window_y, inv, cells_x, cells_y
         ey = py + s * points[b, 0] + c * points[b, 1]
         cells_x[b] = int(np.floor((ex - window_x) * inv))
         cells_y[b] = int(np.floor((ey - window_y) * inv))
+
+
+@njit
+def rotated_endpoint_cells(px, py, pth, points, window_x, window_y, resolution, angular_half, angular_step):
+    """``(n_rot, cells_x, cells_y)``: the field cells of ``points`` seen from ``(px, py)`` at the
+    headings ``pth + r * angular_step`` for ``|r| <= n_rot``, row ``r + n_rot`` each."""
+    n_rot = int(np.floor(angular_half / angular_step + 0.5))
+    rotations = 2 * n_rot + 1
+    cells_x = np.empty((rotations, points.shape[0]), np.int64)
+    cells_y = np.empty((rotations, points.shape[0]), np.int64)
+    inv = 1.0 / resolution
+    for r in range(rotations):
+        endpoint_cells(px, py, pth + (r - n_rot) * angular_step, points, window_x, window_y, inv, cells_x[r],
+                       cells_y[r])
+    return n_rot, cells_x, cells_y
 
 
 @njit
@@ -164,22 +179,16 @@ def bounded_search(field, pooled, block, resolution, window_x, window_y, px, py,
     score of every offset in the block, so blocks are scored in the order of their bounds
     until no bound beats the best score found.
     """
-    n_rot = int(np.floor(angular_half / angular_step + 0.5))
+    n_rot, cells_x, cells_y = rotated_endpoint_cells(px, py, pth, points, window_x, window_y, resolution,
+                                                     angular_half, angular_step)
     rotations = 2 * n_rot + 1
-    n_pts = points.shape[0]
-    cells_x = np.empty((rotations, n_pts), np.int64)
-    cells_y = np.empty((rotations, n_pts), np.int64)
-    inv = 1.0 / resolution
-    for r in range(rotations):
-        endpoint_cells(px, py, pth + (r - n_rot) * angular_step, points, window_x, window_y, inv, cells_x[r],
-               cells_y[r])
     width = 2 * linear_cells + 1
     blocks = (width + block - 1) // block
     bounds = np.empty(rotations * blocks * blocks)
     for r in range(rotations):
         for by in range(blocks):
             for bx in range(blocks):
-                bounds[(r * blocks + by) * blocks + bx] = _bound(
+                bounds[(r * blocks + by) * blocks + bx] = pooled_bound(
                     pooled, block, cells_x[r], cells_y[r], bx * block - linear_cells,
                     by * block - linear_cells)
     order = np.argsort(-bounds)
