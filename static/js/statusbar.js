@@ -62,7 +62,8 @@ export class StatusBar {
       ["pose", pose ? `x ${pose.x.toFixed(2)} m, y ${pose.y.toFixed(2)} m, ${degrees(pose.yaw).toFixed(0)}°` : "—"],
       ["stream", `${this.state.rate("pose").toFixed(1)} poses/s`],
       ["map", s?.map ? `${s.map.width}×${s.map.height} cells @ ${(s.map.resolution * 100).toFixed(0)} cm` : "—"],
-      ["path", s?.path_length ? `${s.path_length.toFixed(2)} m` : "—"],
+      ["room", s?.room ?? "—"],
+      ["path", s?.nav?.state === "driving" && s?.path_length ? `${s.path_length.toFixed(2)} m` : "—"],
       ["worker", worker ? `pid ${worker.pid ?? "—"}, ${worker.steps ?? 0} steps, ${worker.restarts ?? 0} restarts` : "—"],
       ["source", s ? (s.sim ? "simulation" : "robot") : "—"],
     ];

@@ -100,6 +100,27 @@ def test_go_drives_the_robot_to_the_room(dashboard, homebot_server):
     page.wait_for_function(f"window.homebot.state.path.goal?.place === {name!r}", timeout=TIMEOUT_MS)
     page.wait_for_function("window.homebot.state.path.state === 'arrived'", timeout=TIMEOUT_MS)
     assert homebot_server.api("GET", "status").json()["room"] == name
+    # The robot's details name its room, and no path length is left over after arrival.
+    page.wait_for_function(f"window.homebot.state.status?.room === {name!r} && "
+                           "window.homebot.state.status?.nav?.state === 'arrived'", timeout=TIMEOUT_MS)
+    details = dict(zip(page.locator("#details dt").all_inner_texts(),
+                       page.locator("#details dd").all_inner_texts(), strict=True))
+    assert details["room"] == name and details["path"] == "—"
+
+
+def test_the_sidebar_shows_only_what_works_in_mapping_mode(dashboard, homebot_server):
+    page = dashboard
+    assert page.locator("#mode-map").is_hidden()  # "Map for localization": only in localization mode
+    assert page.locator("[data-layer=landmarks]").is_hidden()  # landmarks: only in EKF mode
+    assert page.locator("[data-layer=path]").is_visible()
+    long_name = "the long sofa by the living room window"
+    added = homebot_server.api("POST", "places", json={"name": long_name, "x": 2.0, "y": 3.8})
+    assert added.status_code == 201
+    page.evaluate("window.homebot.panels.refreshPlaces()")
+    coords = page.locator(f"li.place[data-name='{long_name}'] .coords")
+    coords.wait_for()
+    assert coords.inner_text() == "(2.0, 3.8)"
+    assert coords.evaluate("e => e.scrollWidth <= e.clientWidth")  # not cut off by the long name
 
 
 def test_a_zone_and_a_wall_are_drawn_with_the_mouse(dashboard, homebot_server, artifacts):
