@@ -1,5 +1,5 @@
 // Rooms and no-go zones, on the map and in the sidebar: each room in its colour with its name
-// (api/rooms/overlay), the room list with "Go", and the editor for no-go zones (click the corners,
+// (api/rooms/overlay), the room list with "Go" and "Rename", and the editor for no-go zones (click the corners,
 // then Finish) and virtual walls (click both ends). Everything goes through the REST API.
 
 const REFRESH_MS = 5000;
@@ -24,6 +24,7 @@ export class RoomsAndZones {
     this.image = null;
     this.zones = [];
     this.draft = null; // {kind: "zone" | "wall", points: [[x, y], ...]}
+    this.renaming = null; // the id of the room whose name is being edited (the list then waits)
     this.roomsList = root.getElementById("rooms");
     this.zonesList = root.getElementById("zones");
     this.finishButton = root.getElementById("zone-finish");
@@ -53,7 +54,7 @@ export class RoomsAndZones {
         else this.image = null;
       }
       this.overlay = overlay;
-      this.renderLists();
+      if (this.renaming === null) this.renderLists();
       this.redraw();
     } catch {
       // offline or signed out: the status bar says so; try again at the next refresh
@@ -67,7 +68,9 @@ export class RoomsAndZones {
         swatch.style.background = room.colour;
         const go = el("button", { type: "button", textContent: "Go", title: `Drive to ${room.name}` });
         go.addEventListener("click", () => this.goTo(room));
-        const li = el("li", {}, swatch, el("span", { className: "name", textContent: room.name }), go);
+        const rename = el("button", { type: "button", textContent: "Rename" });
+        const li = el("li", {}, swatch, el("span", { className: "name", textContent: room.name }), go, rename);
+        rename.addEventListener("click", () => this.editName(li, room));
         li.dataset.room = room.id;
         return li;
       }),
@@ -82,6 +85,35 @@ export class RoomsAndZones {
         return li;
       }),
     );
+  }
+
+  editName(li, room) {
+    this.renaming = room.id;
+    const input = el("input", { value: room.name, maxLength: 64, ariaLabel: "New room name" });
+    const save = el("button", { type: "submit", textContent: "Save", className: "primary" });
+    const cancel = el("button", { type: "button", textContent: "Cancel" });
+    const form = el("form", { className: "row rename" }, input, save, cancel);
+    form.addEventListener("submit", async (e) => {
+      e.preventDefault();
+      const name = input.value.trim();
+      try {
+        if (name && name !== room.name) {
+          await this.api.request("PATCH", `rooms/${room.id}`, { name });
+          this.notify(`Room renamed to "${name}"`);
+        }
+      } catch (err) {
+        this.fail(err);
+      }
+      this.renaming = null;
+      await this.refresh();
+    });
+    cancel.addEventListener("click", () => {
+      this.renaming = null;
+      this.renderLists();
+    });
+    li.replaceChildren(form);
+    input.focus();
+    input.select();
   }
 
   async goTo(room) {

@@ -92,11 +92,22 @@ def test_rooms_are_listed_and_drawn_in_their_colours(dashboard, homebot_server):
     assert "no-go zones" in page.locator("#legend").inner_text()
 
 
+def test_a_room_is_renamed_in_the_list(dashboard, homebot_server):
+    page = dashboard
+    first = page.locator("#rooms li").first
+    room = first.get_attribute("data-room")
+    first.get_by_role("button", name="Rename").click()
+    page.fill("#rooms form.rename input", "Hall")
+    page.click("#rooms form.rename button[type=submit]")
+    page.wait_for_selector(f"#rooms li[data-room='{room}'] .name:text-is('Hall')", timeout=TIMEOUT_MS)
+    assert "Hall" in {r["name"] for r in homebot_server.api("GET", "rooms").json()}
+
+
 def test_go_drives_the_robot_to_the_room(dashboard, homebot_server):
     page = dashboard
     first = page.locator("#rooms li").first
     name = first.locator(".name").inner_text()
-    first.locator("button").click()
+    first.get_by_role("button", name="Go").click()
     page.wait_for_function(f"window.homebot.state.path.goal?.place === {name!r}", timeout=TIMEOUT_MS)
     page.wait_for_function("window.homebot.state.path.state === 'arrived'", timeout=TIMEOUT_MS)
     assert homebot_server.api("GET", "status").json()["room"] == name
