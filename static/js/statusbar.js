@@ -46,7 +46,12 @@ export class StatusBar {
     }
     const nav = state.path?.state ?? s?.nav?.state ?? "idle";
     const reason = state.path?.reason ?? s?.nav?.reason;
-    setPill(this.nav, nav + (nav === "failed" && reason ? `: ${reason}` : ""), nav === "failed" ? "warn" : nav === "arrived" ? "good" : "");
+    // The reason of a failure is in the error pill already: here only the state (and the tour).
+    const touring = s?.nav?.touring === true && nav !== "failed";
+    setPill(this.nav, touring ? `tour: ${nav}` : nav, nav === "failed" ? "warn" : nav === "arrived" ? "good" : "");
+    this.nav.title = touring
+      ? "The scripted tour is running; a goal, driving by hand or Cancel ends it."
+      : `navigation${reason ? `: ${reason}` : ""}`;
 
     const message = state.lastError?.message ?? worker?.last_error ?? null;
     this.error.hidden = !message;
