@@ -103,6 +103,26 @@ def test_a_room_is_renamed_in_the_list(dashboard, homebot_server):
     assert "Hall" in {r["name"] for r in homebot_server.api("GET", "rooms").json()}
 
 
+def test_a_room_is_split_along_a_drawn_line_and_merged_back(dashboard, homebot_server):
+    page = dashboard
+    hall = page.locator("#rooms li", has=page.locator(".name:text-is('Hall')"))
+    hall_id = int(hall.get_attribute("data-room"))
+    before = {r["id"] for r in homebot_server.api("GET", "rooms").json()}
+    hall.get_by_role("button", name="Split").click()
+    assert "Split the room" in page.locator("#hint").inner_text()
+    _click_world(page, 3.0, 2.9)  # across the hall (y 3.0 to 4.5) at x = 3
+    _click_world(page, 3.0, 4.6)
+    page.wait_for_function(f"document.querySelectorAll('#rooms li').length === {len(before) + 1}",
+                           timeout=TIMEOUT_MS)
+    rooms = {r["id"]: r for r in homebot_server.api("GET", "rooms").json()}
+    (new,) = rooms.keys() - before
+    assert rooms[new]["centroid"][0] < 3.0 < rooms[hall_id]["centroid"][0]  # the west part is new
+    page.locator(f"#rooms li[data-room='{new}'] select").select_option(str(hall_id))
+    page.wait_for_function(f"document.querySelectorAll('#rooms li').length === {len(before)}",
+                           timeout=TIMEOUT_MS)
+    assert {r["id"] for r in homebot_server.api("GET", "rooms").json()} == before
+
+
 def test_go_drives_the_robot_to_the_room(dashboard, homebot_server):
     page = dashboard
     first = page.locator("#rooms li").first
