@@ -32,6 +32,7 @@ RUN python docker/warm_numba_cache.py
 
 VOLUME ["/data"]
 EXPOSE 8000
+# Unhealthy while api/health says "degraded" (worker crash-looping, robot not localized) or no answer.
 HEALTHCHECK --interval=30s --timeout=5s --start-period=60s --retries=3 \
-  CMD python -c "import os, urllib.request; urllib.request.urlopen(f'http://127.0.0.1:{os.environ[\"HOMEBOT_PORT\"]}/api/health', timeout=4)"
+  CMD ["python", "docker/healthcheck.py"]
 CMD ["homebot", "serve", "--host", "0.0.0.0"]

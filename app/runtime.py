@@ -10,8 +10,11 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
+import os
+import signal
 import time
 from collections import deque
+from collections.abc import Callable
 
 import numpy as np
 
@@ -43,12 +46,17 @@ def _rounded(array, decimals: int):
     return None if array is None else np.round(np.asarray(array, float), decimals).tolist()
 
 
+def _terminate_self() -> None:
+    os.kill(os.getpid(), signal.SIGTERM)  # uvicorn shuts down gracefully
+
+
 class Runtime:
     """Owns the robot pipeline for one server run."""
 
-    def __init__(self, settings: Settings, token: str):
+    def __init__(self, settings: Settings, token: str, stop_server: Callable[[], None] | None = None):
         self.settings = settings
         self.token = token
+        self.stop_server = stop_server or _terminate_self
         settings.data_dir.mkdir(parents=True, exist_ok=True)
         settings.maps_dir.mkdir(parents=True, exist_ok=True)
         self.store = Store(settings.db_path)
@@ -63,6 +71,7 @@ class Runtime:
         self.latest: dict | None = None
         self.mode = settings.mode
         self.mapping = True
+        self.replay: dict | None = None  # the worker's replay progress (see app.replay.recording)
         self.events: deque[dict] = deque(maxlen=EVENTS_KEPT)
         self.map_snapshot: MapSnapshot | None = None
         self._full_cache: tuple[int, bytes] | None = None
@@ -119,12 +128,17 @@ class Runtime:
     def _on_worker_message(self, message: dict) -> None:
         if message["kind"] == "state":
             self.latest = message
+            self.replay = message.get("replay") or self.replay
             self.mode, self.mapping = message["mode"], message["mapping"]
             self._rate_window.append(time.monotonic())
             self._publish_state()
             return
         event = {k: v for k, v in message.items() if k not in ("kind", "trace")}
         self.events.append(event)
+        if event["event"] in ("replay_optimising", "replay_finished"):
+            self._on_replay_event(event)
+        if event["event"] == "loop_closed":
+            self.hub.publish("loop_closure", event)
         if event["event"] in ("started", "changed") and "mode" in event:
             self.mode = event["mode"]
             self.mapping = event.get("mapping", self.mapping)
@@ -132,6 +146,13 @@ class Runtime:
             self.hub.publish("error", {"detail": event.get("detail")})
         if event["event"] in ("restarted", "started", "changed", "crashed"):
             self.hub.publish("status", self.status())
+
+    def _on_replay_event(self, event: dict) -> None:
+        self.replay = event["replay"]
+        self.hub.publish("status", self.status())
+        if event["event"] == "replay_finished" and self.settings.replay_exit_at_end:
+            log.warning("replay finished; stopping the server (--exit-at-end)")
+            self.stop_server()
 
     def _publish_state(self) -> None:
         m = self.latest
@@ -231,6 +252,8 @@ class Runtime:
         health = self.supervisor.health.dict() if self.supervisor else {}
         health["steps"] = latest["steps"] if latest else 0
         health["rate_hz"] = round(latest["rate_hz"], 2) if latest else 0.0
+        health["state_t"] = latest["t"] if latest else None  # when the worker last published a pose
+        health["relocalizing"] = bool(latest.get("relocalizing")) if latest else False
         nav = self.navigator
         return {
             "mode": self.mode,
@@ -249,6 +272,8 @@ class Runtime:
                       "map_hz": self.settings.map_hz},
             "clients": len(self.hub.clients),
             "sim": self.settings.simulation,
+            "replay": self.replay,
+            "loops": latest.get("loops") if latest else None,
             "true_pose": None if self.sim is None else [float(v) for v in self.sim.true_pose()],
             "events": list(self.events)[-5:],
             "time": time.time(),

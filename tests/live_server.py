@@ -47,13 +47,19 @@ class LiveServer:
         headers = {"Authorization": f"Bearer {self.token}"} if token else {}
         return httpx.Client(base_url=self.base, headers=headers, timeout=30.0)
 
-    def start(self) -> LiveServer:
+    def launch(self, *args: str) -> LiveServer:
+        """Start the process (``args`` are extra ``homebot serve`` options) without waiting for it."""
         self.port = free_port()
         env = {**os.environ, "HOMEBOT_SIM_TOUR": "0", **self.env, "PYTHONPATH": str(ROOT)}
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "app.cli", "serve", "--port", str(self.port), "--data", str(self.data_dir),
-             "--world", self.world],
+             "--world", self.world, *args],
             cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        return self
+
+    def start(self) -> LiveServer:
+        """Launch and wait until the worker publishes a map and a pose."""
+        self.launch()
         deadline = time.monotonic() + START_TIMEOUT_S
         while time.monotonic() < deadline:
             if self.proc.poll() is not None:

@@ -47,7 +47,8 @@ def test_dockerfile_has_the_required_pieces():
     assert (REPO / "docker" / "warm_numba_cache.py").is_file()
     assert "NUMBA_CACHE_DIR" in args["ENV"]
 
-    assert "/api/health" in args["HEALTHCHECK"]
+    assert "docker/healthcheck.py" in args["HEALTHCHECK"]
+    assert "/api/health" in (REPO / "docker" / "healthcheck.py").read_text()
     assert "/data" in args["VOLUME"] and "HOMEBOT_DATA_DIR=/data" in args["ENV"]
     cmd = yaml.safe_load(args["CMD"])  # the exec form is a JSON (so YAML) list
     assert cmd[:2] == ["homebot", "serve"] and cmd[cmd.index("--host") + 1] == "0.0.0.0"
@@ -57,7 +58,7 @@ def test_compose_runs_the_simulation_on_port_8000_with_a_named_volume():
     compose = yaml.safe_load((REPO / "docker-compose.yml").read_text())
     service = compose["services"]["homebot"]
     assert service["build"] == "."
-    assert "8000:8000" in service["ports"]
+    assert service["ports"] == ["127.0.0.1:8000:8000"], "published on the loopback only"
     command = service["command"] if isinstance(service["command"], list) else shlex.split(service["command"])
     assert command[:2] == ["homebot", "serve"] and "--real" not in command
     assert command[command.index("--port") + 1] == "8000"

@@ -204,11 +204,13 @@ def test_mcl_public_api_on_a_small_room():
 
     mcl.set_pose(truth, np.diag([0.1, 0.1, 0.1]) ** 2)
     assert mcl.step(np.zeros(3), scan_at(truth))
-    assert not mcl.step([0.01, 0.0, 0.0], scan_at(truth))  # below update_min_d: no update
+    mcl.step([0.01, 0.0, 0.0], scan_at(truth))
+    assert not mcl.filter_updated  # below update_min_d: no filter update
     step = 0.06  # half of update_min_d and a bit: every second step updates
     for k in range(1, 15):
         pose = truth + k * step * np.array([np.cos(truth[2]), np.sin(truth[2]), 0.0])
-        assert mcl.step([k * step, 0.0, 0.0], scan_at(pose)) == (k % 2 == 0)
+        assert mcl.step([k * step, 0.0, 0.0], scan_at(pose))  # the track follows every scan
+        assert mcl.filter_updated == (k % 2 == 0)
     e = mcl.estimate()
     assert e.localized
     assert np.hypot(*(e.pose[:2] - pose[:2])) < 0.05 and abs(e.pose[2] - pose[2]) < np.radians(3)

@@ -8,6 +8,7 @@ from hypothesis import strategies as st
 from slam_core.geometry import compose, relative, wrap_angle
 from slam_core.graph.config import LoopClosureConfig
 from slam_core.graph.loop_closure import close_loops, scan_poses
+from slam_core.graph.wide_search import field_pyramid, wide_search
 from slam_core.rbpf.correlative import bounded_search, max_pool, search
 from tests.synthetic_room import room_scan
 
@@ -115,3 +116,31 @@ def test_every_scan_is_matched_instead_of_trusting_stale_odometry_or_noisy_poses
     assert err[~is_update].mean() < 0.02
     assert err_th[~is_update].mean() < 0.5 * stale_th.mean()
     assert err[is_update].mean() < 0.6 * noise.mean()
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(0, 10_000), st.integers(1, 6))
+def test_wide_branch_and_bound_finds_the_exhaustive_searchs_optimum(seed, levels):
+    rng = np.random.default_rng(seed)
+    field = np.where(rng.random((90, 100)) < 0.05, rng.random((90, 100)), 0.0).astype(np.float32)
+    points = rng.uniform(-2.0, 2.0, (30, 2))
+    px, py, pth = rng.uniform(1.5, 3.5), rng.uniform(1.5, 3.0), rng.uniform(-np.pi, np.pi)
+    cells = int(rng.integers(3, 40))
+    exhaustive = search(field, 0.05, 0.0, 0.0, px, py, pth, points, 0.06, 0.02, cells, 1e9, 1e9)
+    pyramid = field_pyramid(field, levels)
+    wide = wide_search(pyramid, 0.05, 0.0, 0.0, px, py, pth, points, 0.06, 0.02, cells, 0.0)
+    assert abs(wide[3] - exhaustive[3]) <= 1e-5 * max(1.0, exhaustive[3])
+    # a floor above the optimum finds nothing
+    assert wide_search(pyramid, 0.05, 0.0, 0.0, px, py, pth, points, 0.06, 0.02, cells,
+                       exhaustive[3] + 1e-3)[3] == -1.0
+
+
+def test_field_pyramid_is_the_maximum_over_each_block():
+    rng = np.random.default_rng(4)
+    field = rng.random((13, 10)).astype(np.float32)
+    pyramid = field_pyramid(field, 3)
+    for level in range(4):
+        block = 1 << level
+        for y in range(13):
+            for x in range(10):
+                assert pyramid[level, y, x] == field[y:y + block, x:x + block].max()

@@ -175,12 +175,18 @@ def test_an_unsent_map_delta_turns_into_a_full_frame():
     assert client.slots["map"] == b"d4"
 
 
-@pytest.mark.parametrize("name", ["kitchen", "Living room 2", "map_1.v2", "a-b"])
+@pytest.mark.parametrize("name", ["kitchen", "Living room 2", "map_1-v2", "a-b", "Küche", "é", "客厅",
+                                  "Спальня"])
 def test_good_names(name):
     assert check_name(name) == name
 
 
-@pytest.mark.parametrize("name", ["", ".hidden", "../x", "a/b", "a\\b", "x" * 65, "..", "a..b", "tab\t", "é"])
+def test_names_compare_in_nfc_form():
+    assert check_name("Ku\u0308che") == "K\u00fcche"
+
+
+@pytest.mark.parametrize("name", ["", ".hidden", "../x", "a/b", "a\\b", "x" * 65, "..", "a..b", "tab\t",
+                                  "home.bak", "v1.2", "x.png", " lead", "trail ", "nl\n", "a\x00b"])
 def test_bad_names_are_refused(name):
     with pytest.raises(ValueError, match="bad"):
         check_name(name)

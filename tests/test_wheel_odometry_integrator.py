@@ -86,6 +86,30 @@ def test_mcu_reset_is_a_time_gap_not_a_jump():
     assert integ.time_gaps == 2
 
 
+def test_a_leap_of_the_mcu_clock_cannot_vouch_for_a_long_move_by_itself():
+    """The issue's frame: valid CRC, MCU clock +4.9 s, ticks for metres, 20 ms after the last one."""
+    integ = OdometryIntegrator(GEOMETRY, max_wheel_speed=1.5)
+    integ.update(0, 0, 0, host_time=100.0)
+    integ.update(DT_US, 10, 10, host_time=100.02)
+    before = integ.pose.copy()
+    leap = int(7.1 / MPT)
+    assert not integ.update(DT_US + 4_900_000, 10 + leap, 10 + leap, host_time=100.04)
+    np.testing.assert_array_equal(integ.pose, before)
+    assert integ.jumps_rejected == 1
+    # Without arrival times the MCU clock alone would have allowed it.
+    alone = OdometryIntegrator(GEOMETRY, max_wheel_speed=1.5)
+    alone.update(0, 0, 0)
+    assert alone.update(4_900_000, leap, leap)
+
+
+def test_a_late_frame_that_the_host_also_waited_for_is_accepted():
+    integ = OdometryIntegrator(GEOMETRY, max_wheel_speed=1.0)
+    integ.update(0, 0, 0, host_time=5.0)
+    ticks = int(0.9 * 1.0 / MPT)  # 0.9 m in 1 s at a 1 m/s limit
+    assert integ.update(1_000_000, ticks, ticks, host_time=6.0)
+    assert integ.pose[0] == pytest.approx(ticks * MPT)
+
+
 def test_bad_construction_is_explained():
     with pytest.raises(ValueError, match="max_wheel_speed"):
         OdometryIntegrator(GEOMETRY, max_wheel_speed=0)

@@ -45,14 +45,14 @@ def test_a_zone_refuses_goals_inside_and_plans_keep_out(server):
         added = http.post("/api/zones", json={"kind": "zone", "points": blocker})
         assert added.status_code == 201, added.text
         inside = http.post("/api/goal", json={"x": 1.8, "y": 3.75})
-        assert inside.status_code == 422 and inside.json()["detail"]["reason"] == "goal_in_no_go_zone"
+        assert inside.status_code == 422 and inside.json()["reason"] == "goal_in_no_go_zone"
         beyond = http.post("/api/goal", json={"x": 2.4, "y": 3.75})
         if beyond.status_code == 202:  # a way around (through a door) is allowed, through the zone is not
             path = np.array(beyond.json()["path"])
             assert not NoGoZone(tuple(map(tuple, blocker))).contains(path).any()
             http.delete("/api/goal")
         else:
-            assert beyond.status_code == 422 and beyond.json()["detail"]["reason"] != "goal_in_no_go_zone"
+            assert beyond.status_code == 422 and beyond.json()["reason"] != "goal_in_no_go_zone"
         assert http.delete(f"/api/zones/{added.json()['id']}").status_code == 204
         free = http.post("/api/goal", json={"x": 2.4, "y": 3.75})
         assert free.status_code == 202, free.text
@@ -107,7 +107,7 @@ def test_a_zone_drawn_across_the_path_while_driving_is_avoided_at_once(server):
 def test_bad_zones_are_refused_with_a_reason(server, body, text):
     with server.client() as http:
         answer = http.post("/api/zones", json=body)
-        assert answer.status_code == 422 and text in answer.text, answer.text
+        assert answer.status_code == 422 and text.lower() in answer.text.lower(), answer.text
         assert http.delete("/api/zones/4242").status_code == 404
 
 

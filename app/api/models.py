@@ -2,13 +2,31 @@
 
 from __future__ import annotations
 
-from typing import Literal
+import math
+from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, model_validator
 
-from app.db.names import check_name
+from app.db.names import MAX_NAME_LENGTH, NAME_REGEX, NAME_RULE, check_name
 
-Finite = Field(allow_inf_nan=False)
+#: No coordinate beyond this (m) is ever accepted; the routes then hold it to the map's bounds.
+COORDINATE_LIMIT_M = 1000.0
+
+#: A position in metres (map frame): a JSON number (not a string, not a boolean), finite, bounded.
+Coordinate = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=-COORDINATE_LIMIT_M,
+                                    le=COORDINATE_LIMIT_M)]
+#: A heading in radians, counter-clockwise from the map's x axis.
+Yaw = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=-2 * math.pi, le=2 * math.pi)]
+
+
+def _name_type(what: str):
+    return Annotated[str, Field(min_length=1, max_length=MAX_NAME_LENGTH, description=NAME_RULE,
+                                json_schema_extra={"pattern": NAME_REGEX}),
+                     AfterValidator(lambda value: check_name(value, what))]
+
+
+PlaceName = _name_type("place name")
+MapName = _name_type("map name")
 
 
 class Strict(BaseModel):
@@ -20,30 +38,72 @@ class Ok(BaseModel):
 
 
 class Health(BaseModel):
-    status: str
+    status: Literal["ok", "degraded"]
     version: str
+    reasons: list[str] = []
 
 
 class Login(Strict):
-    token: str = Field(min_length=1, max_length=512)
+    token: str = Field(min_length=1, max_length=512, strict=True)
 
 
 class PoseBody(Strict):
-    x: float = Finite
-    y: float = Finite
-    yaw: float = Field(0.0, allow_inf_nan=False)
+    """Where the robot is (metres, radians; within the map's bounds plus a margin)."""
+
+    x: Coordinate
+    y: Coordinate
+    yaw: Yaw = 0.0
+
+
+class GoalAtPoint(Strict):
+    """A goal at ``x``, ``y`` (metres, map frame), reached facing ``yaw`` if given."""
+
+    x: Coordinate
+    y: Coordinate
+    yaw: Yaw = None  # left out: any heading will do
+    explore: bool = Field(False, strict=True, description="allow the path through unexplored space")
+
+
+class GoalAtPlace(Strict):
+    """A goal at a named place (its position and heading)."""
+
+    place: PlaceName
+    explore: bool = Field(False, strict=True, description="allow the path through unexplored space")
+
+
+def _goal_schema(schema: dict) -> None:
+    """The schema says what the validator enforces: a point or a place, never both, no nulls."""
+    description = schema.get("description")
+    schema.clear()
+    schema.update(description=description,
+                  oneOf=[GoalAtPoint.model_json_schema(), GoalAtPlace.model_json_schema()])
 
 
 class GoalBody(Strict):
-    x: float | None = Field(None, allow_inf_nan=False)
-    y: float | None = Field(None, allow_inf_nan=False)
-    place: str | None = Field(None, max_length=64)
+    """Either both ``x`` and ``y`` (and optionally ``yaw``), or ``place``."""
+
+    model_config = ConfigDict(extra="forbid", json_schema_extra=_goal_schema)
+
+    x: Coordinate | None = None
+    y: Coordinate | None = None
+    yaw: Yaw | None = None
+    place: PlaceName | None = None
+    explore: bool = Field(False, strict=True)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _no_nulls(cls, data):
+        if isinstance(data, dict) and any(value is None for value in data.values()):
+            raise ValueError("null is not a value: leave the field out")
+        return data
 
     @model_validator(mode="after")
     def _one_kind(self):
         has_xy = self.x is not None and self.y is not None
         if has_xy == (self.place is not None) or (self.x is None) != (self.y is None):
             raise ValueError("give either both 'x' and 'y' (metres) or 'place'")
+        if self.place is not None and self.yaw is not None:
+            raise ValueError("a place has its own heading: give 'yaw' only with 'x' and 'y'")
         return self
 
 
@@ -62,12 +122,7 @@ class PathResponse(BaseModel):
 
 class ModeBody(Strict):
     mode: Literal["mapping", "localization", "ekf"]
-    map: str | None = Field(None, max_length=64)
-
-    @field_validator("map")
-    @classmethod
-    def _map_name(cls, value):
-        return None if value is None else check_name(value, "map name")
+    map: MapName | None = None
 
 
 class ModeResponse(BaseModel):
@@ -76,32 +131,24 @@ class ModeResponse(BaseModel):
 
 
 class TeleopBody(Strict):
-    v: float = Field(ge=-0.5, le=0.5, allow_inf_nan=False)
-    w: float = Field(ge=-2.0, le=2.0, allow_inf_nan=False)
+    v: float = Field(strict=True, ge=-0.5, le=0.5, allow_inf_nan=False)
+    w: float = Field(strict=True, ge=-2.0, le=2.0, allow_inf_nan=False)
 
 
 class PlaceBody(Strict):
-    name: str = Field(max_length=64)
-    x: float = Finite
-    y: float = Finite
-    yaw: float = Field(0.0, allow_inf_nan=False)
+    """A named place; ``x``, ``y`` within the map's bounds plus a margin."""
 
-    @field_validator("name")
-    @classmethod
-    def _name(cls, value):
-        return check_name(value, "place name")
+    name: PlaceName
+    x: Coordinate
+    y: Coordinate
+    yaw: Yaw = 0.0
 
 
 class PlacePatch(Strict):
-    name: str | None = Field(None, max_length=64)
-    x: float | None = Field(None, allow_inf_nan=False)
-    y: float | None = Field(None, allow_inf_nan=False)
-    yaw: float | None = Field(None, allow_inf_nan=False)
-
-    @field_validator("name")
-    @classmethod
-    def _name(cls, value):
-        return None if value is None else check_name(value, "place name")
+    name: PlaceName | None = None
+    x: Coordinate | None = None
+    y: Coordinate | None = None
+    yaw: Yaw | None = None
 
 
 class Place(BaseModel):
@@ -112,12 +159,7 @@ class Place(BaseModel):
 
 
 class MapBody(Strict):
-    name: str = Field(max_length=64)
-
-    @field_validator("name")
-    @classmethod
-    def _name(cls, value):
-        return check_name(value, "map name")
+    name: MapName
 
 
 class SavedMap(BaseModel):
@@ -142,6 +184,8 @@ class Status(BaseModel):
     rates: dict
     clients: int
     sim: bool
+    replay: dict | None = None
+    loops: dict | None = None
     true_pose: list[float] | None
     events: list[dict]
     time: float

@@ -5,8 +5,12 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
+
+from app.cli.inputs import text_file
 from slam_core.datasets import resolve_relations
-from slam_core.evaluation import MAX_DT, evaluate_files
+from slam_core.evaluation import MAX_DT, load_relations, relation_error
+from slam_core.io.trajectory import Trajectory
 
 
 def register(sub) -> None:
@@ -20,7 +24,16 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    result = evaluate_files(args.trajectory, resolve_relations(args.relations))
+    trajectory = Trajectory.load(text_file(args.trajectory))
+    if len(trajectory.poses) < 2 or not np.isfinite(trajectory.poses).all():
+        raise ValueError(f"{args.trajectory}: need at least two poses, all finite")
+    relations_path = text_file(resolve_relations(args.relations))
+    relations = load_relations(relations_path)
+    if not np.isfinite(relations).all():
+        raise ValueError(f"{relations_path}: relations must be finite")
+    result = relation_error(trajectory.times, trajectory.poses, relations)
+    if result.count == 0:
+        raise ValueError(f"{relations_path}: no relation matches a pose of {args.trajectory}")
     if args.json:
         print(json.dumps(result.summary(), indent=2))
     else:

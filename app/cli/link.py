@@ -6,6 +6,7 @@ import json
 import time
 from dataclasses import asdict
 
+from app.cli.inputs import serial_device
 from app.cli.progress import fraction_bar
 from app.grabbers.odometry_grabber import DEFAULT_BAUDRATE, DEFAULT_MAX_WHEEL_SPEED, OdometryGrabber
 from slam_core.sensors.wheel_odometry import DiffDriveGeometry
@@ -39,7 +40,7 @@ def run(args) -> int:
     if not args.seconds > 0:
         raise ValueError(f"--seconds must be positive, got {args.seconds}")
     geometry = DiffDriveGeometry(args.wheel_radius, args.wheel_base, args.ticks_per_rev)
-    grabber = OdometryGrabber(args.port, args.baud, geometry, args.max_wheel_speed)
+    grabber = OdometryGrabber(serial_device(args.port), args.baud, geometry, args.max_wheel_speed)
     start = time.monotonic()
     with grabber, fraction_bar(f"listening on {args.port}") as progress:
         while (elapsed := time.monotonic() - start) < args.seconds:

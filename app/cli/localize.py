@@ -68,10 +68,12 @@ def run(args) -> int:
     cov = None if args.initial is None else np.diag(np.square(args.initial_std))
     with fraction_bar(f"localizing {log.name}") as progress:
         result = replay_log(log, grid, config, args.initial, cov, args.seed, progress)
+    n = len(result.trajectory.stamps)
+    if n == 0:
+        raise ValueError(f"{log}: no laser records to localize" + "".join(f"; {w}" for w in result.warnings))
     traj = result.trajectory.save(args.out / "trajectory.txt")
     for warning in result.warnings:
         print(f"warning: {warning}")
-    n = len(result.trajectory.stamps)
     per_update = 1e3 * float(np.mean(result.update_seconds)) if result.update_seconds else 0.0
     start = "global" if args.initial is None else f"from {args.initial}"
     print(f"localized {n} scans of {log} in {args.map} ({start}) in {result.wall_seconds:.1f} s: "

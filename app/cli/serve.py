@@ -9,7 +9,7 @@ from app.core.config import WORLDS
 
 
 def register(sub) -> None:
-    p = sub.add_parser("serve", help="run the web server (simulated robot unless --real)",
+    p = sub.add_parser("serve", help="run the web server (simulated robot unless --real or --replay)",
                        description="Serve the dashboard, REST API and live stream. On first start a token is "
                                    "generated, stored in the data dir and printed once with the URL.")
     p.add_argument("--host", default=None, help="address to listen on (default 127.0.0.1)")
@@ -18,7 +18,53 @@ def register(sub) -> None:
     p.add_argument("--world", choices=WORLDS, default=None, help="simulated world (default flat)")
     p.add_argument("--real", action="store_true",
                    help="drive a real robot: HOMEBOT_SERIAL_PORT and HOMEBOT_SENSOR_SOURCE")
+    p.add_argument("--replay", metavar="LOG",
+                   help="play a CARMEN log (.clf, .gz, .bz2, or a bundled name: intel, mit-csail) through "
+                        "the live path instead of a robot; writes DATA/replay/<log>/ like `homebot slam`")
+    p.add_argument("--speed", type=_speed, default=None, metavar="X|max",
+                   help="replay speed-up over the log's timing (default 1); max: as fast as SLAM steps")
+    p.add_argument("--exit-at-end", action="store_true",
+                   help="stop the server (exit 0) once the replay's final optimisation is written")
+    p.add_argument("--config", type=Path, default=None,
+                   help="SLAM settings: a config.json as `homebot slam --config` takes")
     p.set_defaults(run=run)
+
+
+def _speed(text: str) -> float | str:
+    """``max`` or a positive number."""
+    if text == "max":
+        return text
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not 0 < value < float("inf"):
+        raise argparse.ArgumentTypeError(f"speed must be a positive number or 'max', got {text!r}")
+    return value
+
+
+def _replay_overrides(args: argparse.Namespace) -> dict:
+    """Settings of a replay; the log is read once here so that a broken one is refused before serving."""
+    from app.replay.log_feed import read_laser_records
+    from slam_core.datasets import resolve_log
+
+    if args.replay is None:
+        if args.speed is not None or args.exit_at_end:
+            raise ValueError("--speed and --exit-at-end go with --replay LOG")
+        return {}
+    read_laser_records(resolve_log(args.replay))
+    speed = {None: 1.0, "max": None}.get(args.speed, args.speed)
+    return {"replay": args.replay, "replay_speed": speed, "replay_exit_at_end": args.exit_at_end}
+
+
+def _check_slam_config(settings) -> None:
+    """Refuse a SLAM settings file the worker could not use, before serving."""
+    from app.worker.estimators import slam_config
+
+    try:
+        slam_config(settings)
+    except (TypeError, KeyError, ValueError) as exc:
+        raise ValueError(f"--config {settings.slam_config}: not a SLAM config ({exc})") from None
 
 
 def run(args: argparse.Namespace) -> int:
@@ -29,12 +75,14 @@ def run(args: argparse.Namespace) -> int:
     from app.main import create_app
 
     overrides = {k: v for k, v in (("host", args.host), ("port", args.port), ("data_dir", args.data),
-                                   ("world", args.world)) if v is not None}
+                                   ("world", args.world), ("slam_config", args.config)) if v is not None}
     if args.real:
         overrides["simulation"] = False
+    overrides.update(_replay_overrides(args))
     settings = Settings(**overrides)
-    if not settings.simulation and not settings.sensor_source:
+    if not settings.simulation and not settings.replay and not settings.sensor_source:
         raise ValueError("a real robot needs HOMEBOT_SENSOR_SOURCE=module:callable giving scans")
+    _check_slam_config(settings)
     token, created = load_or_create_token(settings.data_dir, settings.token)
     url = f"http://{settings.host}:{settings.port}/"
     if created:
@@ -42,6 +90,9 @@ def run(args: argparse.Namespace) -> int:
         print(f"homebot: token stored in {settings.data_dir / 'token'} (shown only this once)", flush=True)
     else:
         print(f"homebot: serving {url} (token in {settings.data_dir / 'token'})", flush=True)
-    uvicorn.run(create_app(settings), host=settings.host, port=settings.port, log_level="warning",
-                proxy_headers=True, forwarded_allow_ips="127.0.0.1", ws_max_size=64 * 1024)
+    app = create_app(settings, stop_server=lambda: setattr(server, "should_exit", True))
+    server = uvicorn.Server(uvicorn.Config(app, host=settings.host, port=settings.port, log_level="warning",
+                                           proxy_headers=True, forwarded_allow_ips="127.0.0.1",
+                                           ws_max_size=64 * 1024))
+    server.run()
     return 0

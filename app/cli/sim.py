@@ -5,10 +5,11 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
+from app.cli.inputs import text_file
 from app.cli.progress import fraction_bar
 from slam_core.sim.record import record_tour
 from slam_core.sim.simulator import SENSORS
-from slam_core.sim.world import load_world, world_names
+from slam_core.sim.world import load_world, resolve_world, world_names
 
 
 def register(sub) -> None:
@@ -34,7 +35,7 @@ def register(sub) -> None:
 def run_record(args) -> int:
     if args.duration is not None and not args.duration > 0:
         raise ValueError("--duration must be positive")
-    world = load_world(args.world)
+    world = load_world(text_file(resolve_world(args.world)))
     started = time.perf_counter()
     with fraction_bar(f"touring {world.name}") as progress:
         rec = record_tour(world, args.out, seed=args.seed, sensor=args.sensor, duration=args.duration,

@@ -31,6 +31,9 @@ def register(sub) -> None:
     p.add_argument("--config", type=Path, help="a config.json written by an earlier run")
     p.add_argument("--linear-update", type=float, help="metres travelled between filter updates")
     p.add_argument("--angular-update", type=float, help="radians turned between filter updates")
+    p.add_argument("--laser-mount", type=float, nargs=3, metavar=("X", "Y", "THETA"),
+                   help="the laser's pose on the robot (m, m, rad; default: the offset between the "
+                        "log's laser and odometry poses)")
     p.add_argument("--no-loop-closure", action="store_true",
                    help="skip the back end: write the best particle's own map and trajectory")
     p.set_defaults(run=run)
@@ -50,9 +53,13 @@ def effective_config(args) -> RBPFConfig:
 def run(args) -> int:
     log = resolve_log(args.log)
     config = effective_config(args)
-    total = count_laser_lines(log)
+    try:
+        total = count_laser_lines(log)
+    except (OSError, EOFError):
+        total = None  # an unreadable log: the reader below reports the file and line
     with count_bar(f"slam {log.name}", total, "scan") as tick:
-        result = slam_from_log(log, config, seed=args.seed, on_scan=lambda: tick(1))
+        result = slam_from_log(log, config, seed=args.seed, on_scan=lambda: tick(1),
+                               laser_mount=args.laser_mount)
     args.out.mkdir(parents=True, exist_ok=True)
     grid = result.grid
     pgm, yml = save_map(grid, args.out / "map")
@@ -64,6 +71,7 @@ def run(args) -> int:
     stats = {
         "log": str(log),
         "seed": args.seed,
+        "laser_mount": list(result.laser_mount.as_tuple()),
         "wall_time_s": round(result.wall_time, 3),
         "filter_time_s": round(result.filter_time, 3),
         "log_duration_s": round(result.log_duration, 3),

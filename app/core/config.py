@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated, Literal
 
-from pydantic import Field, field_validator
+from pydantic import Field, field_validator, model_validator
 from pydantic_settings import BaseSettings, NoDecode, SettingsConfigDict
 
 Mode = Literal["mapping", "localization", "ekf"]
@@ -33,10 +33,18 @@ class Settings(BaseSettings):
     sensor_source: str | None = None
     mode: Mode = "mapping"
     seed: int = 0
+    #: Replay this CARMEN log (a bundled name or a path) through the live path instead of a robot.
+    replay: str | None = None
+    #: Speed-up over the log's own timing; ``None``: as fast as the worker steps, dropping no scan.
+    replay_speed: float | None = Field(1.0, gt=0.0)
+    #: Stop the server once the replay's final optimisation is written.
+    replay_exit_at_end: bool = False
+    #: The SLAM settings file ``homebot slam --config`` takes (an earlier run's ``config.json``).
+    slam_config: Path | None = None
 
     cors_origins: Annotated[list[str], NoDecode] = Field(default_factory=list)
     max_body_bytes: int = Field(64 * 1024, ge=1024)
-    token: str | None = Field(None, min_length=16)
+    token: str | None = Field(None, min_length=32)
 
     stream_hz: float = Field(15.0, ge=10.0, le=60.0)
     map_hz: float = Field(2.0, ge=1.0, le=10.0)
@@ -52,12 +60,12 @@ class Settings(BaseSettings):
     rbpf_angular_update: float = Field(0.2, gt=0.0)
     mcl_min_particles: int = Field(300, ge=10)
     mcl_max_particles: int = Field(3000, ge=10)
-    checkpoint_s: float = Field(5.0, gt=0.0)
+    checkpoint_s: float = Field(1.0, gt=0.0)
     worker_restart_delay_s: float = Field(0.5, ge=0.0)
 
     control_hz: float = Field(10.0, ge=1.0, le=100.0)
     replan_s: float = Field(2.0, gt=0.0)
-    goal_tolerance: float = Field(0.25, gt=0.0)
+    goal_tolerance: float = Field(0.08, gt=0.0, le=1.0)
     max_speed: float = Field(0.4, gt=0.0)
     max_turn_rate: float = Field(1.2, gt=0.0)
     teleop_hold_s: float = Field(0.5, gt=0.0)
@@ -96,6 +104,13 @@ class Settings(BaseSettings):
             raise ValueError(f"tile_size must be a power of two in 16..256, got {value}")
         return value
 
+    @model_validator(mode="after")
+    def _replay_is_not_simulated(self) -> Settings:
+        """A replayed log takes the place of the simulated robot too."""
+        if self.replay:
+            self.simulation = False
+        return self
+
     @property
     def db_path(self) -> Path:
         return self.data_dir / "homebot.sqlite3"
@@ -103,6 +118,10 @@ class Settings(BaseSettings):
     @property
     def maps_dir(self) -> Path:
         return self.data_dir / "maps"
+
+    @property
+    def replay_dir(self) -> Path:
+        return self.data_dir / "replay"
 
     @property
     def checkpoint_dir(self) -> Path:

@@ -1,4 +1,5 @@
-"""The access token: generated once, stored in the data dir, compared in constant time."""
+"""The access token (generated once, stored in the data dir, compared in constant time), the
+browser session cookie's name and the websocket Origin check."""
 
 from __future__ import annotations
 
@@ -9,7 +10,12 @@ from pathlib import Path
 
 TOKEN_FILE = "token"
 TOKEN_BYTES = 32
-COOKIE_NAME = "homebot_token"
+#: Shortest permanent token accepted (from ``HOMEBOT_TOKEN`` or the token file).
+MIN_TOKEN_LENGTH = 32
+#: The browser's cookie: a session token from ``app.core.sessions``, never the permanent token.
+COOKIE_NAME = "homebot_session"
+#: The one SameSite policy of that cookie (set and cleared alike).
+COOKIE_SAMESITE = "strict"
 
 
 def load_or_create_token(data_dir: Path, preset: str | None = None) -> tuple[str, bool]:
@@ -22,7 +28,7 @@ def load_or_create_token(data_dir: Path, preset: str | None = None) -> tuple[str
     path = Path(data_dir) / TOKEN_FILE
     if path.exists():
         token = path.read_text().strip()
-        if len(token) >= 16:
+        if len(token) >= MIN_TOKEN_LENGTH:
             return token, False
     path.parent.mkdir(parents=True, exist_ok=True)
     token = secrets.token_urlsafe(TOKEN_BYTES)
@@ -45,3 +51,12 @@ def bearer_token(authorization: str | None) -> str | None:
         return None
     scheme, _, value = authorization.partition(" ")
     return value.strip() if scheme.lower() == "bearer" and value.strip() else None
+
+
+def origin_allowed(origin: str | None, host: str | None, secure: bool, allowed: list[str]) -> bool:
+    """Whether a websocket from page ``origin`` may connect: no Origin (not a browser), the server's
+    own origin (``host`` over http(s)), or one of the configured CORS origins (``*``: any)."""
+    if origin is None:
+        return True
+    own = f"{'https' if secure else 'http'}://{host}" if host else None
+    return origin == own or "*" in allowed or origin in allowed

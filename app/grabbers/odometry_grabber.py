@@ -217,16 +217,16 @@ class OdometryGrabber:
             data = port.read(max(1, port.in_waiting))
             if not data:
                 continue
-            arrived = self._clock()
+            arrived, arrived_monotonic = self._clock(), time.monotonic()
             with self._lock:
                 frames = self.decoder.feed(data)
             for frame in frames:
-                self._handle(frame, arrived)
+                self._handle(frame, arrived, arrived_monotonic)
 
-    def _handle(self, frame: EncoderFrame, arrived: float) -> None:
+    def _handle(self, frame: EncoderFrame, arrived: float, arrived_monotonic: float) -> None:
         integ = self.integrator
         with self._lock:
-            moved = integ.update(frame.t_us, frame.left, frame.right)
+            moved = integ.update(frame.t_us, frame.left, frame.right, arrived_monotonic)
             if moved:
                 self._counts["published"] += 1
             pose, mcu_time = integ.pose.copy(), integ.time

@@ -26,16 +26,36 @@ log = logging.getLogger(__name__)
 
 @dataclass(frozen=True)
 class Goal:
+    """A point, the heading to end with (any if ``None``), and whether the path may cross unknown space."""
+
     x: float
     y: float
     place: str | None = None
+    yaw: float | None = None
+    explore: bool = False
 
     def dict(self) -> dict:
-        return {"x": self.x, "y": self.y, "place": self.place}
+        return {"x": self.x, "y": self.y, "yaw": self.yaw, "place": self.place}
 
 
 #: The place name tour goals carry.
 TOUR = "tour"
+#: A goal's heading is reached within this (rad); the robot turns on the spot until then.
+HEADING_TOLERANCE = math.radians(2.0)
+#: Turn rate per radian of heading error, and the slowest turn that still moves the wheels (rad/s).
+HEADING_GAIN = 1.5
+MIN_TURN_RATE = 0.15
+
+
+def heading_command(yaw: float, goal_yaw: float | None, max_rate: float) -> float:
+    """The on-the-spot turn rate toward ``goal_yaw``; 0 once within :data:`HEADING_TOLERANCE`."""
+    if goal_yaw is None:
+        return 0.0
+    error = math.atan2(math.sin(goal_yaw - yaw), math.cos(goal_yaw - yaw))
+    if abs(error) <= HEADING_TOLERANCE:
+        return 0.0
+    rate = min(max(HEADING_GAIN * abs(error), MIN_TURN_RATE), max_rate)
+    return math.copysign(rate, error)
 
 
 class Navigator:
@@ -82,7 +102,7 @@ class Navigator:
         if grid is None or pose is None:
             raise PlanningError("the robot has no map or pose yet")
         return await asyncio.to_thread(plan_path, grid, np.asarray(pose, float), (goal.x, goal.y),
-                                       self.restrictions())
+                                       self.restrictions(), goal.explore)
 
     @property
     def touring(self) -> bool:
@@ -153,8 +173,10 @@ class Navigator:
         tx, ty = self.path[-1] if len(self.path) else (self.goal.x, self.goal.y)
         near = math.hypot(pose[0] - tx, pose[1] - ty) <= self.settings.goal_tolerance
         if near or self._follower.done:
-            self._send(0.0, 0.0)
-            self.state, self._follower = "arrived", None
+            turn = heading_command(pose[2], self.goal.yaw, self.settings.max_turn_rate)
+            self._send(0.0, turn)
+            if turn == 0.0:
+                self.state, self._follower = "arrived", None
             return
         if now - self._last_plan >= self.settings.replan_s and not self._replanning:
             self._last_plan = now
@@ -169,7 +191,7 @@ class Navigator:
         x, y = self._tour[self._tour_next % len(self._tour)]
         self._tour_next += 1
         try:
-            await self.set_goal(Goal(float(x), float(y), TOUR))
+            await self.set_goal(Goal(float(x), float(y), TOUR, explore=True))
         except PlanningError as exc:
             log.info("tour stop (%.2f, %.2f) skipped: %s", x, y, exc)
 

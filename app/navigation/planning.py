@@ -15,19 +15,29 @@ from slam_core.planning.zones import Restrictions, check_goal, exit_point, restr
 __all__ = ["PlanningError", "follower_for", "plan_path"]
 
 
-def plan_path(grid: OccupancyGrid, pose: np.ndarray, goal,
-              restrictions: Restrictions | None = None) -> np.ndarray:
+#: A cell the robot has seen to be more likely free than not is mapped free space (the dashboard
+#: draws it lighter than unknown grey); one never seen, or seen more occupied than free, is unknown.
+MAPPED_FREE_BELOW = 0.5
+#: Unknown cells are forbidden unless the goal explores; then they cost the planner's default extra.
+KNOWN_ONLY = CostmapConfig(unknown_cost=None, free_thresh=MAPPED_FREE_BELOW)
+EXPLORING = CostmapConfig(free_thresh=MAPPED_FREE_BELOW)
+
+
+def plan_path(grid: OccupancyGrid, pose: np.ndarray, goal, restrictions: Restrictions | None = None,
+              explore: bool = False) -> np.ndarray:
     """Waypoints ``(n, 2)`` from the pose to the goal; raises ``PlanningError`` with a ``reason``.
 
-    With ``restrictions`` (no-go zones, virtual walls) the path keeps the robot out of them; a
-    robot inside one first leaves it by the nearest way out.
+    Without ``explore`` a goal in unknown space fails with ``goal_in_unknown`` and the path stays
+    in mapped free space. With ``restrictions`` (no-go zones, virtual walls) the path keeps the
+    robot out of them; a robot inside one first leaves it by the nearest way out.
     """
-    costmap = build_costmap(grid)
+    config = EXPLORING if explore else KNOWN_ONLY
+    costmap = build_costmap(grid, config)
     start = np.asarray(pose, float)[:2]
     if not restrictions:
         return np.asarray(planner.plan_path(costmap, start, np.asarray(goal, float)).waypoints, float)
     check_goal(restrictions, goal)
-    costmap = restricted_costmap(costmap, restrictions, CostmapConfig().robot_radius)
+    costmap = restricted_costmap(costmap, restrictions, config.robot_radius)
     way_out = exit_point(costmap, start)
     path = planner.plan_path(costmap, start if way_out is None else way_out, np.asarray(goal, float))
     waypoints = np.asarray(path.waypoints, float)
@@ -36,4 +46,5 @@ def plan_path(grid: OccupancyGrid, pose: np.ndarray, goal,
 
 def follower_for(waypoints: np.ndarray, settings: Settings) -> PurePursuit:
     """The simulator branch's pure-pursuit controller, within the server's speed limits."""
-    return PurePursuit(waypoints, PursuitConfig(v_max=settings.max_speed, w_max=settings.max_turn_rate))
+    return PurePursuit(waypoints, PursuitConfig(v_max=settings.max_speed, w_max=settings.max_turn_rate,
+                                                goal_tolerance=settings.goal_tolerance))

@@ -4,12 +4,14 @@ The server talks to it exactly as to a real robot: odometry and velocity command
 over the serial link (the worker's odometry grabber opens the pty path with pyserial),
 scans arrive in a shared slot (:mod:`app.robot.scan_slot`); a real robot's come from
 ``settings.sensor_source``.
-Ground truth is published in a shared array for status and tests only.
+Ground truth is published in a shared array for status and tests only. SIGUSR1 cuts the
+virtual MCU's power for a moment (tests of recovery: it reboots with its counters at 0).
 """
 
 from __future__ import annotations
 
 import multiprocessing as mp
+import os
 import signal
 import time
 from dataclasses import dataclass
@@ -19,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from app.robot.scan_slot import ScanSlot
+from app.worker.lifeline import bind_to_parent
 
 PHYSICS_HZ = 100.0
 SCAN_HZ = 15.0
@@ -56,7 +59,8 @@ def start_simulator(world: str, seed: int, link: Path, ctx=None) -> tuple[SimHan
     truth = ctx.Array("d", 4)
     stop = ctx.Event()
     parent, child = ctx.Pipe(duplex=False)
-    proc = ctx.Process(target=run_simulator, args=(world, seed, str(link), scans, truth, stop, child),
+    proc = ctx.Process(target=run_simulator,
+                       args=(world, seed, str(link), scans, truth, stop, child, os.getpid()),
                        name="homebot-sim", daemon=True)
     proc.start()
     child.close()
@@ -74,9 +78,11 @@ def wait_ready(handles: SimHandles, ready: Connection) -> None:
         raise message
 
 
-def run_simulator(world_name: str, seed: int, link: str, scans: ScanSlot, truth, stop, ready) -> None:
+def run_simulator(world_name: str, seed: int, link: str, scans: ScanSlot, truth, stop, ready,
+                  parent_pid: int) -> None:
     """The simulator process: step physics in real time, scan, serve the MCU pty."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the server stops us through ``stop``
+    bind_to_parent(parent_pid, stop.set)  # ... and we stop when it dies
     from app.robot_link.virtual_mcu import VirtualMCU
     from slam_core.sim.lidar import Lidar
     from slam_core.sim.robot import SimRobot
@@ -92,6 +98,7 @@ def run_simulator(world_name: str, seed: int, link: str, scans: ScanSlot, truth,
     except Exception as exc:  # reported to the parent, which raises it
         ready.send(RuntimeError(f"simulator failed to start: {exc}"))
         return
+    signal.signal(signal.SIGUSR1, lambda *_: mcu.power_cycle())  # fault injection: an MCU power cut
     ready.send(mcu.path)
     dt = 1.0 / PHYSICS_HZ
     scan_every = max(1, round(PHYSICS_HZ / SCAN_HZ))

@@ -39,6 +39,8 @@ log = logging.getLogger(__name__)
 
 DEFAULT_RATE_HZ = 50.0
 READ_CHUNK = 4096
+#: How long :meth:`VirtualMCU.power_cycle` keeps the MCU off by default (s).
+POWER_OFF_S = 0.5
 
 
 class WheelSource(Protocol):
@@ -95,6 +97,7 @@ class VirtualMCUStats:
     commands_refused: int = 0  # the wheel source raised on set_velocity
     tick_errors: int = 0  # the wheel source raised on ticks(); no frame sent
     watchdog_stops: int = 0
+    power_cycles: int = 0
 
 
 class VirtualMCU:
@@ -137,6 +140,9 @@ class VirtualMCU:
         self._write_lock = threading.Lock()
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
+        self._power_back_at: float | None = None  # set by power_cycle(), read by the thread
+        self._tick_origin = (0, 0)  # wheel ticks at the last power-up: the counters restart from 0
+        self._clock_origin = 0.0
 
     @property
     def path(self) -> str:
@@ -194,6 +200,30 @@ class VirtualMCU:
     def __exit__(self, *exc) -> None:
         self.stop()
 
+    def power_cycle(self, off_s: float = POWER_OFF_S) -> None:
+        """Cut the power for ``off_s`` seconds (tests): no frames and the wheels stop; then the MCU
+        boots again with its encoder counters, clock and frame sequence back at 0."""
+        self._power_back_at = time.monotonic() + off_s
+
+    def _powered(self) -> bool:
+        """False while the power is cut (wheels stopped, input dropped); reboots when it returns."""
+        back_at = self._power_back_at
+        if back_at is None:
+            return True
+        if time.monotonic() < back_at:
+            self._apply(0.0, 0.0)
+            with contextlib.suppress(BlockingIOError, OSError):
+                os.read(self._master, READ_CHUNK)
+            time.sleep(self.period)
+            return False
+        self._tick_origin = tuple(int(t) for t in self.wheels.ticks())
+        self._clock_origin = self._clock()
+        self._seq = 0
+        self.decoder.reset()
+        self.stats.power_cycles += 1
+        self._power_back_at = None
+        return True
+
     def inject(self, data: bytes) -> int:
         """Write raw bytes onto the line between frames (tests); return how many fitted."""
         return self._write(data)
@@ -215,7 +245,8 @@ class VirtualMCU:
             log.warning("virtual MCU: wheel source failed to give ticks: %s", exc)
             self.stats.tick_errors += 1
             return
-        t_us = round(self._clock() * 1e6) % TIME_MODULUS
+        left, right = left - self._tick_origin[0], right - self._tick_origin[1]
+        t_us = round((self._clock() - self._clock_origin) * 1e6) % TIME_MODULUS
         frame = encode(EncoderFrame(self._seq, t_us, wrap_i32(left), wrap_i32(right)))
         self._seq = (self._seq + 1) % SEQ_MODULUS
         if self.faults is not None:
@@ -237,6 +268,9 @@ class VirtualMCU:
         next_send = time.monotonic()
         last_command = None
         while not self._stop.is_set():
+            if not self._powered():
+                next_send, last_command = time.monotonic(), None
+                continue
             now = time.monotonic()
             if now >= next_send:
                 self._send_encoder_frame()

@@ -1,66 +1,172 @@
-"""Periodic checkpoints (map + pose + mode) a restarted worker resumes from, and the exit map."""
+"""Durable worker state: lossless map snapshots, a frequent pose file, quarantine of bad snapshots.
+
+A snapshot is one ``.npz`` per generation (``map-000042.npz``): the map's log-odds, its
+per-cell hit sums (the mean beam endpoints the scan matcher aligns to), origin and
+resolution, with the pose, mode and encoder counts at that moment. It is written to a temp
+file, fsynced and renamed, so a crash leaves either the old or the new snapshot, never half
+of one. The newest :data:`GENERATIONS_KEPT` are kept. Between snapshots the pose is saved,
+just as atomically, to ``pose.json`` with the generation it belongs to.
+
+A snapshot that fails to load, or that the supervisor blames for a crash loop
+(:func:`quarantine_newest`), is renamed ``map-000042.bad-20260101T120000.npz`` (kept for
+inspection, never loaded again) and the previous generation is used.
+"""
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
+import re
 import time
+import zipfile
+import zlib
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from app.worker.estimators import Checkpoint
 from slam_core.io.render import save_png
-from slam_core.io.ros_map import load_map, save_map
+from slam_core.io.ros_map import save_map
 from slam_core.occupancy_grid import OccupancyGrid
 
-STATE_FILE = "state.json"
-MAP_STEM = "map"
+POSE_FILE = "pose.json"
+GENERATIONS_KEPT = 3
+SNAPSHOT = re.compile(r"map-(\d{6})\.npz")
 
 
-def save_checkpoint(directory: Path, checkpoint: Checkpoint, with_map: bool = True) -> None:
-    """Write map (unless ``with_map`` is false) then state, each atomically (temp file + rename)."""
+class BadCheckpoint(ValueError):
+    """A snapshot that cannot be used (unreadable, inconsistent or absurd)."""
+
+
+@dataclass
+class Restored:
+    """What :func:`load_checkpoint` found: the checkpoint (None: start afresh) and what it set aside."""
+
+    checkpoint: Checkpoint | None
+    generation: int = 0
+    quarantined: list[tuple[Path, str]] = field(default_factory=list)  # (new path, reason)
+
+
+def generations(directory: Path) -> list[int]:
+    """Snapshot generations present, oldest first."""
+    found = (SNAPSHOT.fullmatch(p.name) for p in Path(directory).glob("map-*.npz"))
+    return sorted(int(m.group(1)) for m in found if m)
+
+
+def snapshot_path(directory: Path, generation: int) -> Path:
+    return Path(directory) / f"map-{generation:06d}.npz"
+
+
+def write_atomically(path: Path, write) -> None:
+    """Call ``write(file)`` on a temp file beside ``path``, fsync it, rename it over ``path``."""
+    tmp = path.with_name(f".{path.name}.tmp")
+    with open(tmp, "wb") as f:
+        write(f)
+        f.flush()
+        os.fsync(f.fileno())
+    os.replace(tmp, path)
+    directory = os.open(path.parent, os.O_RDONLY)
+    try:
+        os.fsync(directory)
+    finally:
+        os.close(directory)
+
+
+def _state(checkpoint: Checkpoint) -> dict:
+    return {"mode": checkpoint.mode, "pose": [float(v) for v in checkpoint.pose],
+            "mapping": checkpoint.mapping, "map_name": checkpoint.map_name,
+            "ticks": None if checkpoint.ticks is None else [int(t) for t in checkpoint.ticks],
+            "time": time.time()}
+
+
+def save_snapshot(directory: Path, checkpoint: Checkpoint) -> int:
+    """Write ``checkpoint`` (with its map) as the next generation; returns that generation."""
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
-    has_map = (directory / f"{MAP_STEM}.yaml").exists()
-    if with_map and checkpoint.grid is not None and checkpoint.grid.data.size:
-        tmp = directory / "tmp"
-        pgm, yml = save_map(checkpoint.grid, tmp / MAP_STEM)
-        os.replace(pgm, directory / pgm.name)
-        os.replace(yml, directory / yml.name)
-        has_map = True
-    state = {
-        "mode": checkpoint.mode,
-        "pose": [float(v) for v in checkpoint.pose],
-        "mapping": checkpoint.mapping,
-        "map_name": checkpoint.map_name,
-        "has_map": has_map,
-        "ticks": None if checkpoint.ticks is None else [int(t) for t in checkpoint.ticks],
-        "time": time.time(),
-    }
-    tmp_state = directory / (STATE_FILE + ".tmp")
-    tmp_state.write_text(json.dumps(state))
-    os.replace(tmp_state, directory / STATE_FILE)
+    existing = generations(directory)
+    generation = (existing[-1] if existing else 0) + 1
+    grid = checkpoint.grid
+    arrays = {"state": np.array(json.dumps(_state(checkpoint)))}
+    if grid is not None and grid.data.size:
+        arrays.update(log_odds=grid.data.astype(np.float32), origin=np.asarray(grid.origin, float),
+                      resolution=np.array(grid.resolution))
+        if checkpoint.hit_sums is not None:
+            arrays["hit_sums"] = checkpoint.hit_sums.astype(np.float32)
+    write_atomically(snapshot_path(directory, generation), lambda f: np.savez_compressed(f, **arrays))
+    for old in existing[:max(0, len(existing) + 1 - GENERATIONS_KEPT)]:
+        snapshot_path(directory, old).unlink(missing_ok=True)
+    return generation
 
 
-def load_checkpoint(directory: Path) -> Checkpoint | None:
-    """The last checkpoint, or ``None`` when there is none (or it is unreadable)."""
-    directory = Path(directory)
+def save_pose(directory: Path, checkpoint: Checkpoint, generation: int) -> None:
+    """The pose between snapshots (``checkpoint.grid`` is ignored)."""
+    text = json.dumps({**_state(checkpoint), "generation": generation}).encode()
+    write_atomically(Path(directory) / POSE_FILE, lambda f: f.write(text))
+
+
+def read_snapshot(path: Path, max_cells: int) -> Checkpoint:
+    """One snapshot, checked; :class:`BadCheckpoint` says why it cannot be used."""
     try:
-        state = json.loads((directory / STATE_FILE).read_text())
-        grid = load_map(directory / f"{MAP_STEM}.yaml") if state.get("has_map") else None
-        ticks = state.get("ticks")
-        return Checkpoint(state["mode"], np.array(state["pose"], float), grid,
-                          bool(state.get("mapping", True)), state.get("map_name"),
-                          None if ticks is None else (int(ticks[0]), int(ticks[1])))
-    except (OSError, ValueError, KeyError):
-        return None
+        with np.load(path, allow_pickle=False) as z:
+            state = json.loads(str(z["state"]))
+            grid = hits = None
+            if "log_odds" in z:
+                grid = OccupancyGrid(float(z["resolution"]), z["origin"], data=z["log_odds"])
+                hits = z.get("hit_sums")
+        checkpoint = _checkpoint(state, grid, hits)
+    except (OSError, ValueError, KeyError, TypeError, EOFError, zipfile.BadZipFile, zlib.error) as exc:
+        raise BadCheckpoint(f"unreadable: {type(exc).__name__}: {exc}") from None
+    if grid is not None:
+        if grid.data.ndim != 2 or grid.data.size > max_cells:
+            raise BadCheckpoint(f"map of shape {grid.data.shape} exceeds the limit of {max_cells} cells")
+        if not np.all(np.isfinite(grid.data)) or (hits is not None and hits.shape != (*grid.shape, 3)):
+            raise BadCheckpoint("map holds non-finite cells or hit sums of the wrong shape")
+    return checkpoint
 
 
-def clear_checkpoint(directory: Path) -> None:
-    """Forget the checkpoint (a fresh start)."""
-    for name in (STATE_FILE, f"{MAP_STEM}.yaml", f"{MAP_STEM}.pgm"):
-        (Path(directory) / name).unlink(missing_ok=True)
+def _checkpoint(state: dict, grid: OccupancyGrid | None, hits: np.ndarray | None) -> Checkpoint:
+    pose = np.array(state["pose"], float)
+    if pose.shape != (3,) or not np.all(np.isfinite(pose)):
+        raise ValueError(f"pose {state['pose']!r} is not three finite numbers")
+    ticks = state.get("ticks")
+    return Checkpoint(str(state["mode"]), pose, grid, bool(state.get("mapping", True)), state.get("map_name"),
+                      None if ticks is None else (int(ticks[0]), int(ticks[1])), hits)
+
+
+def load_checkpoint(directory: Path, max_cells: int) -> Restored:
+    """The newest usable snapshot with the newest pose saved for it; bad snapshots are quarantined."""
+    directory = Path(directory)
+    restored = Restored(None)
+    for generation in reversed(generations(directory)):
+        path = snapshot_path(directory, generation)
+        try:
+            checkpoint = read_snapshot(path, max_cells)
+        except BadCheckpoint as exc:
+            restored.quarantined.append((quarantine(path), str(exc)))
+            continue
+        with contextlib.suppress(OSError, ValueError, KeyError, TypeError, IndexError):
+            state = json.loads((directory / POSE_FILE).read_text())
+            if state.get("generation") == generation:
+                checkpoint = _checkpoint(state, checkpoint.grid, checkpoint.hit_sums)
+        restored.checkpoint, restored.generation = checkpoint, generation
+        return restored
+    return restored
+
+
+def quarantine(path: Path) -> Path:
+    """Rename a snapshot aside, with the time in its name, so it is kept but never loaded again."""
+    stamp = time.strftime("%Y%m%dT%H%M%S", time.gmtime())
+    target = path.with_name(f"{path.stem}.bad-{stamp}{path.suffix}")
+    os.replace(path, target)
+    return target
+
+
+def quarantine_newest(directory: Path) -> Path | None:
+    """Set the newest snapshot aside (the supervisor blames it for a crash loop); its new path."""
+    found = generations(directory)
+    return quarantine(snapshot_path(directory, found[-1])) if found else None
 
 
 def save_exit_map(grid: OccupancyGrid, stem: Path, trajectory=None) -> list[Path]:

@@ -7,10 +7,14 @@ checkpoint pose; the map frame is therefore continuous across worker restarts.
 
 from __future__ import annotations
 
+import dataclasses
+import json
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
+from app.worker.relocalize import Relocalizer
 from slam_core.ekf.ekf_slam import EkfConfig, EkfSlam
 from slam_core.estimator import Estimate
 from slam_core.localization.mcl import MclConfig, MonteCarloLocalizer
@@ -34,6 +38,7 @@ class Checkpoint:
     mapping: bool = True
     map_name: str | None = None
     ticks: tuple[int, int] | None = None  # the MCU's cumulative encoder counts at ``pose``
+    hit_sums: np.ndarray | None = None  # per-cell beam endpoint sums of ``grid`` (RBPF maps)
 
 
 class FrozenMap:
@@ -54,15 +59,35 @@ class FrozenMap:
         return self.grid
 
 
-def _rbpf(settings, pose: np.ndarray, grid: OccupancyGrid | None) -> RBPFSlam:
+def slam_config(settings) -> RBPFConfig:
+    """The filter's settings: ``settings.slam_config`` (a ``config.json`` as ``homebot slam --config``
+    takes) or the defaults; a live robot (not a replay) keeps the server's particle count,
+    resolution and update thresholds."""
+    config = RBPFConfig()
+    if settings.slam_config is not None:
+        config = RBPFConfig.from_dict(json.loads(Path(settings.slam_config).read_text()))
+    if settings.replay:
+        return config
+    return dataclasses.replace(config, particles=settings.particles, resolution=settings.resolution,
+                               linear_update=settings.rbpf_linear_update,
+                               angular_update=settings.rbpf_angular_update)
+
+
+def _rbpf(settings, pose: np.ndarray, grid: OccupancyGrid | None, hit_sums: np.ndarray | None) -> RBPFSlam:
     """The RBPF SLAM, resumed on the checkpoint's map when there is one."""
-    config = RBPFConfig(particles=settings.particles, resolution=settings.resolution,
-                        linear_update=settings.rbpf_linear_update,
-                        angular_update=settings.rbpf_angular_update)
+    config = slam_config(settings)
     slam = RBPFSlam(config, seed=settings.seed, initial_pose=pose)
     if grid is not None and grid.data.size and abs(grid.resolution - settings.resolution) < 1e-12:
-        slam.maps.seed_from_grid(grid)
+        slam.maps.seed_from_grid(grid, hit_sums)
     return slam
+
+
+def map_with_hits(estimator) -> tuple[OccupancyGrid | None, np.ndarray | None]:
+    """The estimator's map and, for the RBPF, its hit sums (None for estimators that keep none)."""
+    if isinstance(estimator, RBPFSlam):
+        best = estimator.best_index()
+        return estimator.maps.to_grid(best), estimator.maps.hit_sums(best)
+    return estimator.occupancy_map(), None
 
 
 def make_estimator(mode: str, settings, checkpoint: Checkpoint | None):
@@ -72,7 +97,7 @@ def make_estimator(mode: str, settings, checkpoint: Checkpoint | None):
     if checkpoint is not None and not checkpoint.mapping:
         return FrozenMap(grid, pose)
     if mode == "mapping":
-        return _rbpf(settings, pose, grid)
+        return _rbpf(settings, pose, grid, checkpoint.hit_sums if checkpoint is not None else None)
     if mode == "localization":
         if grid is None or not grid.data.size:
             raise ModeUnavailable("localization needs a map: load a saved map or map first")
@@ -101,7 +126,8 @@ def warm_up(settings) -> None:
     """Compile (or load from numba's cache) the mapping kernels before the first real step.
 
     A first update compiled lazily would stall the live loop for a long time on a
-    fresh install; a two-particle filter on a synthetic round room does it up front.
+    fresh install; a two-particle filter on a synthetic round room does it up front, and
+    a re-localization in its map compiles the searches a restart needs.
     """
     config = RBPFConfig(particles=2, resolution=settings.resolution, linear_update=0.01, angular_update=0.01)
     slam = RBPFSlam(config, seed=0)
@@ -109,4 +135,5 @@ def warm_up(settings) -> None:
     scan = Scan(angles, np.full(WARM_UP_BEAMS, 2.0), 0.1, 8.0)
     slam.step(np.zeros(3), scan)
     slam.step(np.array([0.05, 0.0, 0.02]), scan)
-    slam.occupancy_map()
+    grid, hits = map_with_hits(slam)
+    Relocalizer(grid, hits, config).locate(scan, np.array([0.3, 0.0, 0.0]))

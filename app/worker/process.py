@@ -1,10 +1,9 @@
 """The SLAM worker process: synchronised estimator steps, published state, map and checkpoints.
 
-Persistent synchronisation (the seed's SLAM loop): a step is taken only when BOTH a
-new odometry reading and a new scan have arrived since the last step; stale data is
-never stepped twice. After each step the pose, particle cloud and scan go to the
-server on a small queue; the map goes into shared memory at ``map_hz``, with per-tile
-change stamps (:mod:`app.worker.shared_map`), so the map is never pickled.
+Scans are paired with odometry by :mod:`app.worker.pairing`. With ``settings.replay``
+a CARMEN log takes the robot's place (:mod:`app.replay`). After each step the pose,
+particle cloud and scan go to the server on a small queue; the map goes into shared
+memory at ``map_hz``, with per-tile change stamps (:mod:`app.worker.shared_map`), so the map is never pickled.
 """
 
 from __future__ import annotations
@@ -17,21 +16,43 @@ import signal
 import threading
 import time
 import traceback
-from dataclasses import dataclass, replace
+from dataclasses import asdict, dataclass, replace
+from pathlib import Path
 
 import numpy as np
 
 from app.core.config import Settings
 from app.grabbers.odometry_grabber import OdometryGrabber
+from app.grabbers.odometry_history import OdometryHistory
 from app.grabbers.scan_grabber import ScanGrabber, load_sensor_source
 from app.grabbers.shared import Latest
-from app.worker.checkpoint import load_checkpoint, save_checkpoint, save_exit_map
-from app.worker.estimators import Checkpoint, ModeUnavailable, dead_reckons, make_estimator, warm_up
-from app.worker.shared_map import SharedMap, grid_cells
+from app.replay.log_feed import LogReplay, read_laser_records, replay_name
+from app.replay.recording import ReplayRecording
+from app.worker.checkpoint import load_checkpoint, save_exit_map, save_pose, save_snapshot
+from app.worker.estimators import (
+    Checkpoint,
+    FrozenMap,
+    ModeUnavailable,
+    dead_reckons,
+    make_estimator,
+    map_with_hits,
+    warm_up,
+)
+from app.worker.lifeline import bind_to_parent
+from app.worker.live_back_end import BackEndResult, LiveBackEnd
+from app.worker.lockfile import acquire_worker_lock
+from app.worker.map_limits import check_room, map_box, scan_reach
+from app.worker.pairing import NewestPairing, Pair, StampedPairing
+from app.worker.relocalize import Relocalizer
+from app.worker.shared_map import MapTooLarge, SharedMap, grid_cells
+from slam_core.datasets import resolve_log
 from slam_core.estimator import Estimate
-from slam_core.geometry import compose, relative, transform_points
+from slam_core.geometry import compose, relative, transform_points, wrap_angle
 from slam_core.io.ros_map import load_map
-from slam_core.sensors.wheel_odometry import ticks_to_increment, wrapped_delta
+from slam_core.occupancy_grid import OccupancyGrid, SensorModel
+from slam_core.pipelines.log_slam import best_updates
+from slam_core.rbpf.config import RBPFConfig
+from slam_core.rbpf.filter import RBPFSlam
 
 log = logging.getLogger(__name__)
 
@@ -41,6 +62,8 @@ POSE_SAVE_S = 0.2
 RATE_SMOOTHING = 0.2
 #: Keep this many poses of the trajectory drawn on the exit PNG.
 TRAJECTORY_KEEP = 20000
+#: A worker that has taken this many steps and then saved a checkpoint reports itself healthy.
+HEALTHY_STEPS = 10
 
 
 @dataclass
@@ -52,6 +75,7 @@ class WorkerSpec:
     port: str
     restart: int = 0
     initial_pose: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    parent_pid: int = 0  # the server; the worker ends when it dies
 
 
 def put_newest(q, item) -> None:
@@ -72,18 +96,33 @@ class Worker:
         s = self.settings
         self.shm = SharedMap(s.map_capacity_cells, s.tile_size, name=spec.shm_name)
         self.wakeup = threading.Event()
-        self.odometry = Latest()
         self.scans = Latest()
-        self.odometry_grabber = OdometryGrabber(spec.port, s.serial_baud, output=self.odometry)
-        if scan_slot is not None:
-            self.scan_grabber = ScanGrabber(slot=scan_slot, output=self.scans)
+        self.replay: ReplayRecording | None = None
+        self.anchor: tuple[np.ndarray, np.ndarray] | None = None
+        self.generation = 0
+        if s.replay:
+            initial_pose = self._open_replay(s.replay_dir)
+            checkpoint = None  # a replay always starts afresh, and leaves the robot's checkpoint alone
         else:
-            self.scan_grabber = ScanGrabber(source=load_sensor_source(s.sensor_source), output=self.scans)
-        checkpoint = load_checkpoint(s.checkpoint_dir)
+            self.odometry = Latest()
+            self.odometry_grabber = OdometryGrabber(spec.port, s.serial_baud, output=self.odometry)
+            if scan_slot is not None:
+                self.scan_grabber = ScanGrabber(slot=scan_slot, output=self.scans)
+            else:
+                self.scan_grabber = ScanGrabber(source=load_sensor_source(s.sensor_source), output=self.scans)
+            self.link = self.odometry_grabber
+            self.sources = [self.odometry_grabber, self.scan_grabber]
+            self.pairing = NewestPairing(self.odometry, self.scans)
+            initial_pose = spec.initial_pose
+            restored = load_checkpoint(s.checkpoint_dir, s.map_capacity_cells)
+            for path, reason in restored.quarantined:
+                self._event("checkpoint_quarantined", path=str(path), detail=reason)
+            checkpoint, self.generation = restored.checkpoint, restored.generation
+        restored_map = checkpoint is not None
         self.mode = checkpoint.mode if checkpoint else s.mode
         self.mapping = checkpoint.mapping if checkpoint else True
         self.map_name = checkpoint.map_name if checkpoint else None
-        self.pose = checkpoint.pose.copy() if checkpoint else np.array(spec.initial_pose, float)
+        self.pose = checkpoint.pose.copy() if checkpoint else np.array(initial_pose, float)
         checkpoint = checkpoint or Checkpoint(self.mode, self.pose.copy())
         try:
             self.estimator = make_estimator(self.mode, s, checkpoint)
@@ -91,15 +130,45 @@ class Worker:
             self._event("error", detail=str(exc))
             self.mode = "mapping"
             self.estimator = make_estimator("mapping", s, checkpoint)
-        self.anchor: tuple[np.ndarray, np.ndarray] | None = None
+        self.loop_closures = self.loop_edges_seen = 0
+        self._attach_back_end(seeded=checkpoint.grid is not None)
         self.updated_at: np.ndarray | None = None  # re-anchored odometry at the estimator's last update
         self.ticks: tuple[int, int] | None = None  # encoder counts of the last step
-        self.resume_ticks = checkpoint.ticks if checkpoint else None  # counts at the checkpoint pose
         self.steps = 0
         self.rate_hz = 0.0
         self.last_step = None
         self.trajectory: list[np.ndarray] = []
         self.map_written = False
+        # The map as last restored or handed over: estimators without a map of their own (EKF)
+        # or without hit sums (MCL, frozen) are checkpointed with it, so a mode switch keeps it.
+        self.kept_grid, self.kept_hits = checkpoint.grid, checkpoint.hit_sums
+        self.map_changed = False  # since the last snapshot
+        # A restored map: find the robot in it before anything is written (app.worker.relocalize).
+        self.relocalizer = self._relocalizer() if restored_map else None
+        self.relocalizing_from: tuple[np.ndarray, np.ndarray] | None = None  # (odometry, pose) at the start
+
+    def _open_replay(self, replay_dir: Path) -> np.ndarray:
+        """The log takes the robot's place; returns the first record's odometry, the start pose."""
+        s = self.settings
+        path = resolve_log(s.replay)
+        records, warnings = read_laser_records(path)
+        name = replay_name(s.replay)
+        history = OdometryHistory()
+        self.feed = LogReplay(records, s.replay_speed, history, self.scans)
+        self.replay = ReplayRecording(path, name, records, replay_dir / name, s.replay_speed, s.seed,
+                                      warnings)
+        self.link = self.feed
+        self.sources = [self.feed]
+        self.pairing = StampedPairing(history, self.scans)
+        self.anchor = (np.zeros(3), np.zeros(3))  # the log's odometry frame is the map frame, as offline
+        return records[0].odom
+
+    def _attach_back_end(self, seeded: bool) -> None:
+        """The live back end of a particle filter that starts from an empty map (it needs every
+        scan of the map; a filter resumed on a checkpoint's map goes on alone)."""
+        self.back_end = None if seeded else LiveBackEnd.attached_to(self.estimator)
+        self.solved: BackEndResult | None = None
+        self.published_grid: OccupancyGrid | None = None  # optimised map + updates since
 
     # messages to the server
     def _event(self, event: str, **fields) -> None:
@@ -121,14 +190,36 @@ class Worker:
             "particles": None if particles is None else np.asarray(particles, np.float32),
             "weights": None if weights is None else np.asarray(weights, np.float32),
             "points": points, "mode": self.mode, "mapping": self.mapping, "steps": self.steps,
+            "relocalizing": self.relocalizer is not None,
             "rate_hz": self.rate_hz,
             "landmarks": estimate.landmarks, "landmark_covariances": estimate.landmark_covariances,
+            "replay": self._replay_progress(),
+            "loops": {"closures": self.loop_closures, "edges": self.solved.loop_edges if self.solved else 0,
+                      "solves": self.back_end.solves if self.back_end else 0},
         })
+
+    def _replay_progress(self) -> dict | None:
+        return None if self.replay is None else asdict(self.replay.progress(self.feed.played))
 
     # estimator management
     def _checkpoint(self, with_map: bool = True) -> Checkpoint:
-        grid = self.estimator.occupancy_map() if with_map else None
-        return Checkpoint(self.mode, self.pose.copy(), grid, self.mapping, self.map_name, self.ticks)
+        grid = hits = None
+        if with_map:
+            grid, hits = map_with_hits(self.estimator)
+            if grid is None or not grid.data.size:
+                grid, hits = self.kept_grid, self.kept_hits
+            elif hits is None and self.kept_hits is not None and self.kept_hits.shape[:2] == grid.shape:
+                hits = self.kept_hits
+        return Checkpoint(self.mode, self.pose.copy(), grid, self.mapping, self.map_name, self.ticks, hits)
+
+    def _save(self, with_map: bool) -> None:
+        """A snapshot (map and pose) or just the pose; see :mod:`app.worker.checkpoint`."""
+        directory = self.settings.checkpoint_dir
+        if with_map:
+            self.generation = save_snapshot(directory, self._checkpoint())
+            self.map_changed = False
+        else:
+            save_pose(directory, self._checkpoint(with_map=False), self.generation)
 
     def _rebuild(self, mode: str, grid=None, pose=None, mapping=None, map_name=None) -> None:
         """Swap the estimator, keeping the map frame continuous (odometry re-anchored)."""
@@ -137,10 +228,14 @@ class Worker:
             mode, current.pose if pose is None else np.asarray(pose, float),
             current.grid if grid is None else grid,
             current.mapping if mapping is None else mapping,
-            map_name if map_name is not None else current.map_name)
+            map_name if map_name is not None else current.map_name,
+            hit_sums=current.hit_sums if grid is None else None)
         estimator = make_estimator(mode, self.settings, checkpoint)  # ModeUnavailable: keep the old one
         self.estimator, self.mode, self.mapping = estimator, mode, checkpoint.mapping
         self.pose, self.map_name = checkpoint.pose, checkpoint.map_name
+        self.kept_grid, self.kept_hits = checkpoint.grid, checkpoint.hit_sums
+        self.map_changed = True
+        self._attach_back_end(seeded=checkpoint.grid is not None)
         self.anchor = None
         self.updated_at = None
         self.map_written = False
@@ -148,7 +243,7 @@ class Worker:
     def _handle(self, command: tuple) -> None:
         name, *args = command
         if name == "velocity":
-            self.odometry_grabber.send_velocity(*args)
+            self.link.send_velocity(*args)
             return
         try:
             if name == "mode":
@@ -156,7 +251,12 @@ class Worker:
                 grid = load_map(yaml_path) if yaml_path else None
                 self._rebuild(mode, grid=grid, mapping=True, map_name=map_name)
             elif name == "pose":
-                self._rebuild(self.mode, pose=np.asarray(args, float))
+                pose = np.asarray(args, float)
+                self._check_room(pose, SensorModel().usable_range)
+                if self.relocalizer is not None:  # the person's pose becomes the search's guess
+                    self.pose, self.relocalizing_from = pose, None
+                else:
+                    self._rebuild(self.mode, pose=pose)
             elif name == "mapping":
                 self._rebuild("mapping", mapping=bool(args[0]))
             elif name == "shutdown":
@@ -167,6 +267,50 @@ class Worker:
             self._event("changed", mode=self.mode, mapping=self.mapping)
         except (ModeUnavailable, ValueError, OSError) as exc:
             self._event("error", detail=f"{name}: {exc}")
+
+    def _check_room(self, pose, reach: float) -> None:
+        """:class:`MapTooLarge` if a scan from ``pose`` would grow the map past its limit."""
+        s = self.settings
+        check_room(map_box(self.estimator, self.kept_grid), pose, reach, s.resolution, s.map_capacity_cells)
+
+    def _room_to_map(self, pose, scan) -> bool:
+        """Whether mapping may go on at ``pose``; at the map's limit mapping pauses, with an error event."""
+        if not isinstance(self.estimator, RBPFSlam):
+            return True
+        try:
+            self._check_room(pose, scan_reach(scan, self.estimator.maps.model))
+            return True
+        except MapTooLarge as exc:
+            self._event("error", detail=f"mapping paused: {exc}")
+            self._rebuild("mapping", mapping=False)
+            return False
+
+    def _relocalizer(self) -> Relocalizer | None:
+        current = self._checkpoint()
+        if current.grid is None or not current.grid.data.size:
+            return None
+        return Relocalizer(current.grid, current.hit_sums, RBPFConfig(resolution=current.grid.resolution))
+
+    def _relocalize(self, odometry, scan) -> bool:
+        """Look for the robot in the restored map; until found, publish the guess and map nothing.
+
+        The guess is the last pose carried on by the odometry since the start. Once found, the
+        estimator is rebuilt at the pose found, so mapping continues the same map, in register.
+        """
+        if self.relocalizing_from is None:
+            self.relocalizing_from = (np.asarray(odometry, float).copy(), self.pose.copy())
+        odo0, pose0 = self.relocalizing_from
+        guess = compose(pose0, relative(odo0, odometry))
+        fix = self.relocalizer.locate(scan, guess)
+        if fix is None:
+            self.pose = guess
+            self._publish_state(scan, Estimate(pose=guess, localized=False))
+            return False
+        self.relocalizer = self.relocalizing_from = None
+        self._rebuild(self.mode, pose=fix.pose)
+        self._event("relocalized", search=fix.search, fit=round(fix.fit, 3),
+                    pose=[round(float(v), 4) for v in fix.pose])
+        return True
 
     def _drain_commands(self) -> None:
         while True:
@@ -180,54 +324,60 @@ class Worker:
     def run(self) -> None:
         s = self.settings
         warm_up(s)
-        self.odometry_grabber.start()
-        self.scan_grabber.start()
+        for source in self.sources:
+            source.start()
         self._event("started", restart=self.spec.restart, mode=self.mode)
-        last_odo = last_scan = 0
+        reported_healthy = False
         next_map = next_checkpoint = next_pose_save = time.monotonic()
         try:
             while not self.stop.is_set():
                 self._drain_commands()
-                odo_seq, odo = self.odometry.get()
-                scan_seq, scan = self.scans.get()
-                if odo_seq > last_odo and scan_seq > last_scan:
-                    last_odo, last_scan = odo_seq, scan_seq
-                    self._step(odo, scan)
-                else:
-                    # Wait for whichever is missing (never step on stale data).
-                    missing = self.odometry if odo_seq <= last_odo else self.scans
-                    missing.wait_newer(odo_seq if missing is self.odometry else scan_seq, WAIT_S)
+                pair = self.pairing.next(WAIT_S)
+                if pair is not None:
+                    self._step(pair)
+                self._take_back_end()
+                if self._replay_played():
+                    self._finish_replay()
                 now = time.monotonic()
                 if now >= next_map:
                     self._publish_map()
                     next_map = now + 1.0 / s.map_hz
-                if now >= next_checkpoint:
-                    save_checkpoint(s.checkpoint_dir, self._checkpoint())
+                if self.replay is not None:
+                    continue  # a replay keeps no checkpoint
+                if now >= next_checkpoint and self.map_changed:
+                    self._save(with_map=True)
                     next_checkpoint = next_pose_save = now + s.checkpoint_s
+                    if not reported_healthy and self.steps >= HEALTHY_STEPS:
+                        self._event("healthy")
+                        reported_healthy = True
                 elif now >= next_pose_save and self.ticks is not None:
-                    save_checkpoint(s.checkpoint_dir, self._checkpoint(with_map=False), with_map=False)
+                    self._save(with_map=False)
                     next_pose_save = now + POSE_SAVE_S
         finally:
             self._exit()
 
-    def _step(self, reading, scan) -> None:
+    def _step(self, pair: Pair) -> None:
+        reading, scan = pair.odometry, pair.scan
         odometry = reading.pose
-        if self.anchor is None:
-            start = self.pose.copy()
-            if self.resume_ticks is not None:
-                # Restarted: the robot moved on while no worker ran; the MCU's counters tell how far.
-                d_left = wrapped_delta(reading.ticks[0], self.resume_ticks[0])
-                d_right = wrapped_delta(reading.ticks[1], self.resume_ticks[1])
-                start = compose(start, ticks_to_increment(d_left, d_right, self.odometry_grabber.geometry))
-                self.resume_ticks = None
-                if d_left or d_right:
-                    self._rebuild(self.mode, pose=start)  # the estimator starts where the robot is
-            self.anchor = (np.asarray(odometry, float).copy(), start)
         self.ticks = reading.ticks
+        if self.relocalizer is not None and not self._relocalize(odometry, scan):
+            return
+        if self.anchor is None:
+            self.anchor = (np.asarray(odometry, float).copy(), self.pose.copy())
         odo0, pose0 = self.anchor
         odometry = compose(pose0, relative(odo0, odometry))
-        if self.estimator.step(odometry, scan) or self.updated_at is None:
+        if not self._room_to_map(odometry, scan):
+            return
+        updated = self.estimator.step(odometry, scan)
+        if updated or self.updated_at is None:
             self.updated_at = odometry
+            self.map_changed = True
+        if updated and self.back_end is not None:
+            self.back_end.updated(self.estimator, scan)
+            self._draw_update(scan)
+        if self.replay is not None:
+            self.replay.stepped(pair.scan_seq - 1, updated, self.estimator.stats.updates - 1)
+            self.feed.mark_stepped(pair.scan_seq - 1)
         estimate = self.estimator.estimate()
         if not dead_reckons(self.estimator):
             estimate = self._dead_reckoned(estimate, relative(self.updated_at, odometry))
@@ -240,7 +390,63 @@ class Worker:
         self.last_step = now
         self.trajectory.append(self.pose.copy())
         del self.trajectory[:-TRAJECTORY_KEEP]
-        self._publish_state(scan, estimate)
+        self._publish_state(scan, self._corrected(estimate))
+
+    def _corrected(self, estimate: Estimate) -> Estimate:
+        """The filter's estimate in the map frame: the back end's correction composed with it."""
+        if self.solved is None:
+            return estimate
+        c = self.solved.correction
+        particles = None if estimate.particles is None else compose(c, estimate.particles)
+        return replace(estimate, pose=compose(c, estimate.pose), particles=particles)
+
+    def _take_back_end(self) -> None:
+        """Use a finished solve: its correction, and its map with the updates since drawn in. A solve
+        that found more loop edges than any before is a loop closure (an event with the pose's jump)."""
+        result = self.back_end.take() if self.back_end is not None else None
+        if result is None:
+            return
+        best = best_updates(self.estimator).poses
+        if result.loop_edges > self.loop_edges_seen:
+            self.loop_edges_seen = result.loop_edges
+            self.loop_closures += 1
+            before = best[-1] if self.solved is None else compose(self.solved.correction, best[-1])
+            jump = compose(result.correction, best[-1]) - before
+            jump[2] = wrap_angle(jump[2])
+            self._event("loop_closed", closures=self.loop_closures, loop_edges=result.loop_edges,
+                        seq=self.steps, jump=[round(float(v), 4) for v in jump])
+        self.solved = result
+        scans = self.back_end.scans
+        for k in range(len(result.poses), len(scans)):
+            result.grid.integrate(scans[k], compose(result.correction, best[k]))
+        self.published_grid = result.grid
+
+    def _draw_update(self, scan) -> None:
+        """Draw the filter's newest update into the published map, at its corrected pose."""
+        if self.published_grid is not None:
+            best = self.estimator.poses[self.estimator.best_index()]
+            self.published_grid.integrate(scan, compose(self.solved.correction, best))
+
+    def _replay_played(self) -> bool:
+        """Whether the whole log was played and every scan taken, with the back end still to run."""
+        return (self.replay is not None and self.replay.phase == "playing" and self.feed.ended.is_set()
+                and self.pairing.last_scan == len(self.replay.records))
+
+    def _finish_replay(self) -> None:
+        """The final optimisation: publish and write the optimised map and trajectory; mapping stops."""
+        self.replay.phase = "optimising"
+        self._event("replay_optimising", replay=self._replay_progress())
+        if self.back_end is not None:
+            self.back_end.wait()
+        result = self.replay.finish(self.estimator)
+        self._attach_back_end(seeded=True)
+        self.pose = result.poses[-1].copy()
+        self.estimator, self.mapping = FrozenMap(result.grid, self.pose), False
+        self.map_written = False
+        self._publish_map()
+        self._publish_state(self.replay.records[-1].scan, self.estimator.estimate())
+        self._event("replay_finished", replay=self._replay_progress(), loop_edges=result.loop_edges,
+                    paths=[str(p) for p in result.paths])
 
     @staticmethod
     def _dead_reckoned(estimate: Estimate, motion: np.ndarray) -> Estimate:
@@ -256,8 +462,11 @@ class Worker:
             particles = np.array([compose(p, motion) for p in particles])
         return replace(estimate, pose=compose(estimate.pose, motion), particles=particles)
 
+    def _published_map(self) -> OccupancyGrid | None:
+        return self.published_grid if self.published_grid is not None else self.estimator.occupancy_map()
+
     def _publish_map(self) -> None:
-        grid = self.estimator.occupancy_map()
+        grid = self._published_map()
         if grid is None or not grid.data.size:
             return
         self.shm.publish(grid_cells(grid), grid.origin, grid.resolution, force_full=not self.map_written)
@@ -266,15 +475,16 @@ class Worker:
     def _exit(self) -> None:
         """Save the last map (PGM + YAML + PNG) and a final checkpoint; stop the grabbers."""
         with contextlib.suppress(Exception):
-            self.odometry_grabber.send_velocity(0.0, 0.0)
+            self.link.send_velocity(0.0, 0.0)
         s = self.settings
-        grid = self.estimator.occupancy_map()
+        grid = self.published_grid if self.published_grid is not None else self._checkpoint().grid
         if grid is not None and grid.data.size:
+            if self.replay is None:
+                self._save(with_map=True)
             paths = save_exit_map(grid, s.last_map_stem, np.array(self.trajectory).reshape(-1, 3))
-            save_checkpoint(s.checkpoint_dir, self._checkpoint())
             self._event("saved", paths=[str(p) for p in paths])
-        self.odometry_grabber.stop()
-        self.scan_grabber.stop()
+        for source in self.sources:
+            source.stop()
         self.shm.close()
 
 
@@ -289,7 +499,12 @@ def worker_main(spec: WorkerSpec, commands, states, scan_slot) -> None:
 
     signal.signal(signal.SIGTERM, _stop)
     signal.signal(signal.SIGINT, _stop)
+    bind_to_parent(spec.parent_pid, lambda: _stop(signal.SIGTERM, None))
     try:
+        lock = acquire_worker_lock(Path(spec.settings["data_dir"]))
+        if lock.ended_pid is not None:
+            put_newest(states, {"kind": "event", "event": "ended_stale_worker", "t": time.time(),
+                                "pid": lock.ended_pid})
         worker = Worker(spec, commands, states, scan_slot)
         worker.run()
     except Exception as exc:

@@ -15,11 +15,13 @@ import queue
 import signal
 import threading
 import time
+from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from app.core.config import Settings
 from app.robot.scan_slot import ScanSlot
+from app.worker.checkpoint import quarantine_newest
 from app.worker.process import WorkerSpec, worker_main
 from app.worker.shared_map import SharedMap
 
@@ -29,6 +31,17 @@ STATES_MAX = 256
 COMMANDS_MAX = 256
 POLL_S = 0.1
 STOP_TIMEOUT_S = 15.0
+#: Restart delays double with every failure in a row, up to this (s).
+RESTART_DELAY_CAP_S = 30.0
+#: Exits kept in the restart history.
+HISTORY_KEPT = 20
+#: Failures in a row (workers that died before they were healthy) that make a crash loop.
+CRASH_LOOP_FAILURES = 2
+
+
+def restart_delay(base_s: float, failures: int, cap_s: float = RESTART_DELAY_CAP_S) -> float:
+    """The wait before the next start after ``failures`` (>= 1) failures in a row: ``base * 2**(n-1)``."""
+    return min(cap_s, base_s * 2.0 ** max(0, failures - 1))
 
 
 @dataclass
@@ -41,12 +54,20 @@ class WorkerHealth:
     started_at: float | None = None
     last_error: str | None = None
     last_exit_code: int | None = None
-    history: list[dict] = field(default_factory=list)
+    #: Workers in a row that died before they reported healthy (reset by a healthy worker).
+    failures: int = 0
+    healthy: bool = False
+    history: deque[dict] = field(default_factory=lambda: deque(maxlen=HISTORY_KEPT))
+
+    @property
+    def crash_looping(self) -> bool:
+        return self.failures >= CRASH_LOOP_FAILURES
 
     def dict(self) -> dict:
         return {"alive": self.alive, "pid": self.pid, "restarts": self.restarts,
                 "started_at": self.started_at, "last_error": self.last_error,
-                "last_exit_code": self.last_exit_code}
+                "last_exit_code": self.last_exit_code, "failures": self.failures,
+                "healthy": self.healthy, "crash_looping": self.crash_looping}
 
 
 class WorkerSupervisor:
@@ -68,6 +89,8 @@ class WorkerSupervisor:
         self._states = None
         self._stopping = threading.Event()
         self._relay: threading.Thread | None = None
+        self._resumed = False  # the current worker loaded its checkpoint and started
+        self._blamed = 0  # workers in a row that died after resuming, before they were healthy
 
     # lifecycle
     def start(self) -> None:
@@ -77,15 +100,26 @@ class WorkerSupervisor:
 
     def _spawn(self) -> None:
         with self._lock:
+            self._close_queues()
             self._commands = self.ctx.Queue(COMMANDS_MAX)
             self._states = self.ctx.Queue(STATES_MAX)
             spec = WorkerSpec(self.settings.model_dump(), self.shared_map.name, self.port,
-                              self.health.restarts, self.initial_pose)
+                              self.health.restarts, self.initial_pose, os.getpid())
             proc = self.ctx.Process(target=worker_main, name="homebot-worker", daemon=True,
                                     args=(spec, self._commands, self._states, self.scan_slot))
             proc.start()
             self._process = proc
             self.health.alive, self.health.pid, self.health.started_at = True, proc.pid, time.time()
+            self.health.healthy = False
+            self._resumed = False
+
+    def _close_queues(self) -> None:
+        """Release the last generation's queues (their feeder thread and semaphores) at once."""
+        for q in (self._commands, self._states):
+            if q is not None:
+                q.close()
+                q.cancel_join_thread()  # a dead worker reads nothing: do not wait for the pipe
+        self._commands = self._states = None
 
     def stop(self) -> None:
         """Ask the worker to save and exit (SIGTERM), wait, then release the shared map."""
@@ -100,6 +134,7 @@ class WorkerSupervisor:
         if self._relay is not None:
             self._relay.join(2.0)
         self._drain()
+        self._close_queues()
         self.health.alive = False
         self.shared_map.close()
         with contextlib.suppress(FileNotFoundError):
@@ -132,8 +167,13 @@ class WorkerSupervisor:
             self._deliver(message)
 
     def _deliver(self, message: dict) -> None:
-        if message.get("kind") == "event" and message.get("event") in ("crashed", "error"):
+        event = message.get("event") if message.get("kind") == "event" else None
+        if event in ("crashed", "error"):
             self.health.last_error = message.get("detail")
+        elif event == "started":
+            self._resumed = True  # the checkpoint loaded: a death from now on may be its fault
+        elif event == "healthy":
+            self.health.healthy, self.health.failures, self._blamed = True, 0, 0
         try:
             self.on_message(message)
         except Exception:  # a bug in a consumer must not stop the relay
@@ -154,6 +194,18 @@ class WorkerSupervisor:
             if proc is not None and not proc.is_alive() and not self._stopping.is_set():
                 self._restart(proc)
 
+    def _blame_checkpoint(self) -> None:
+        """The second worker in a row to die soon after resuming sets the newest snapshot aside."""
+        self._blamed += 1
+        if self._blamed < CRASH_LOOP_FAILURES:
+            return
+        self._blamed = 0
+        path = quarantine_newest(self.settings.checkpoint_dir)
+        if path is not None:
+            log.warning("the worker died twice in a row after resuming; set %s aside", path)
+            self._deliver({"kind": "event", "event": "checkpoint_quarantined", "t": time.time(),
+                           "path": str(path), "detail": "the worker died twice in a row after resuming it"})
+
     def _restart(self, proc: mp.Process) -> None:
         self._drain()
         code = proc.exitcode
@@ -162,9 +214,16 @@ class WorkerSupervisor:
         if self.health.last_error is None or (code is not None and code < 0):
             self.health.last_error = f"worker exited with code {code}"
         self.health.restarts += 1
-        self.health.history.append({"time": time.time(), "exit_code": code})
-        log.warning("worker exited (code %s); restarting from the last checkpoint", code)
-        self._stopping.wait(self.settings.worker_restart_delay_s)
+        if not self.health.healthy:
+            self.health.failures += 1
+        self.health.history.append({"time": time.time(), "exit_code": code, "healthy": self.health.healthy})
+        if self._resumed and not self.health.healthy:
+            self._blame_checkpoint()
+        # A worker that was healthy is replaced at once; failures in a row back off.
+        delay = 0.0 if self.health.healthy else restart_delay(self.settings.worker_restart_delay_s,
+                                                              self.health.failures)
+        log.warning("worker exited (code %s); restarting from the last checkpoint in %.1f s", code, delay)
+        self._stopping.wait(delay)
         if not self._stopping.is_set():
             self._spawn()
             self.on_message({"kind": "event", "event": "restarted", "t": time.time(),

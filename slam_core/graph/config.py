@@ -26,6 +26,15 @@ class LoopClosureConfig:
     against its submap; ``refine_beams``: how many of a scan's beams (evenly
     spread) that final match uses, more than the filter's ``max_beams``, since it
     runs once per scan.
+
+    Loops after large drift (:mod:`slam_core.graph.wide_search`): an update with no
+    loop edge yet (one in ``wide_every``) also searches old submaps in a window of
+    ``window_sigmas`` standard errors of the drift the chain's own noise (above) lets
+    accumulate between them (the heading's random walk swinging the position), up to
+    ``max_linear_window`` / ``max_angular_window``: the ``wide_candidates`` nearest
+    whose anchor lies within ``search_radius`` plus that window. The search keeps only
+    poses where the correlative score reaches ``wide_min_score`` of its maximum, and
+    the match must explain ``wide_accept_fit`` of the beams.
     """
 
     enabled: bool = True
@@ -46,3 +55,10 @@ class LoopClosureConfig:
     rounds: int = 2
     refine_fit: float = 0.6
     refine_beams: int = 720
+    wide_every: int = 5
+    window_sigmas: float = 3.0
+    max_linear_window: float = 20.0
+    max_angular_window: float = 0.5
+    wide_candidates: int = 3
+    wide_min_score: float = 0.5
+    wide_accept_fit: float = 0.8

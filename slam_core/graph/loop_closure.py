@@ -38,9 +38,11 @@ import numpy as np
 from slam_core.geometry import compose, relative
 from slam_core.graph.config import LoopClosureConfig
 from slam_core.graph.pose_graph import PoseGraph, chain_edges, optimize
+from slam_core.graph.wide_search import LEVELS, field_pyramid, wide_search
 from slam_core.occupancy_grid import SensorModel
 from slam_core.rbpf.config import MatcherParams
 from slam_core.rbpf.correlative import bounded_search, likelihood_window, max_pool
+from slam_core.rbpf.laser_mount import LaserMount
 from slam_core.rbpf.scan_matcher import P_OCCUPIED, beam_rows, match, pose_likelihood
 from slam_core.rbpf.tiled_map import TiledMaps
 from slam_core.scan import Scan
@@ -85,6 +87,13 @@ class Submap:
                                        matcher.coarse_reach_cells)
         self.field_corner = m.origin + (centre - half) * resolution
         self.pooled = max_pool(self.field, BLOCK_CELLS)
+        self._pyramid: np.ndarray | None = None
+
+    def pyramid(self) -> np.ndarray:
+        """The field max-pooled at every level of the wide search (built when first asked for)."""
+        if self._pyramid is None:
+            self._pyramid = field_pyramid(self.field, LEVELS)
+        return self._pyramid
 
     def fine(self) -> tuple:
         m = self.maps
@@ -131,16 +140,26 @@ class Submaps:
 
 
 def _match(sub: Submap, start: np.ndarray, beams: np.ndarray, points: np.ndarray,
-           config: LoopClosureConfig, matcher: MatcherParams, params: np.ndarray):
-    """``(pose, info, fit)`` of one scan in the submap's frame, searched around ``start``;
-    ``None`` when the correlative search's best pose lies on its window's rim."""
+           config: LoopClosureConfig, matcher: MatcherParams, params: np.ndarray,
+           linear: float, angular: float):
+    """``(pose, info, fit)`` of one scan in the submap's frame, searched within ``+-linear`` m
+    and ``+-angular`` rad of ``start``; ``None`` when the correlative search's best pose lies
+    on its window's rim, or (a window wider than the narrow one) no pose scores well."""
     res = sub.maps.resolution
-    linear_cells = int(np.ceil(config.linear_window / res))
-    sx, sy, sth, _ = bounded_search(sub.field, sub.pooled, BLOCK_CELLS, res, sub.field_corner[0],
-                                    sub.field_corner[1], start[0], start[1], start[2], points,
-                                    config.angular_window, matcher.coarse_angular_step, linear_cells)
+    linear_cells = int(np.ceil(linear / res))
+    if linear <= config.linear_window:
+        sx, sy, sth, _ = bounded_search(sub.field, sub.pooled, BLOCK_CELLS, res, sub.field_corner[0],
+                                        sub.field_corner[1], start[0], start[1], start[2], points,
+                                        angular, matcher.coarse_angular_step, linear_cells)
+    else:
+        sx, sy, sth, score = wide_search(sub.pyramid(), res, sub.field_corner[0], sub.field_corner[1],
+                                         start[0], start[1], start[2], points, angular,
+                                         matcher.coarse_angular_step, linear_cells,
+                                         config.wide_min_score * len(points))
+        if score < 0:
+            return None
     rim = (max(abs(sx - start[0]), abs(sy - start[1])) >= (linear_cells - 0.5) * res
-           or abs(sth - start[2]) >= config.angular_window - 0.5 * matcher.coarse_angular_step)
+           or abs(sth - start[2]) >= angular - 0.5 * matcher.coarse_angular_step)
     if rim:
         return None
     fine = sub.fine()
@@ -151,48 +170,51 @@ def _match(sub: Submap, start: np.ndarray, beams: np.ndarray, points: np.ndarray
 
 def close_loops(poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig | None = None,
                 matcher: MatcherParams | None = None, resolution: float = 0.05,
-                model: SensorModel | None = None) -> tuple[LoopClosureResult, Submaps]:
-    """Loop-closed poses for the filter's poses at its updates with their scans; also the
-    submaps (for :func:`scan_poses`)."""
+                model: SensorModel | None = None, laser_mount=None) -> tuple[LoopClosureResult, Submaps]:
+    """Loop-closed robot poses for the filter's robot poses at its updates with their scans
+    (taken by a laser at ``laser_mount`` in the robot frame); also the submaps (for
+    :func:`scan_poses`), which hold the laser's poses."""
     config = config or LoopClosureConfig()
     matcher = matcher or MatcherParams()
     model = model or SensorModel()
-    poses = np.asarray(poses, dtype=float)
+    mount = LaserMount.of(laser_mount)
+    result = LoopClosureResult(np.array(poses, dtype=float))
+    poses = mount.laser_poses(result.poses)
     params = matcher.packed()
     submaps = Submaps(poses, scans, config, resolution, model, matcher, params)
     n = len(poses)
-    result = LoopClosureResult(poses.copy())
     if not config.enabled or n < 2:
         return result, submaps
     path = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(poses[:, :2], axis=0).T))])
     reach = min(matcher.max_range, model.usable_range)
     chain = _chain_information(poses, config)
+    drift = ChainDrift(poses, path, config)
     estimate = poses.copy()
     edges: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
-    for _ in range(config.rounds):
-        pairs: dict[int, list[int]] = {}
-        for q in range(n):
-            for s in _candidates(q, estimate, path, submaps, config):
-                if (s, q) not in edges:
-                    pairs.setdefault(s, []).append(q)
+    tried_wide: set[tuple[int, int]] = set()
+    narrow = (config.linear_window, config.angular_window)
 
-        def try_submap(s: int, queries: list[int], estimate=estimate):
-            sub = submaps[s]
-            found = []
-            for q in queries:
-                beams = beam_rows(scans[q], reach, matcher.max_beams)
-                points = beam_rows(scans[q], min(matcher.coarse_range, reach), matcher.coarse_beams)[:, :2]
-                if len(points) == 0:
-                    continue
-                hit = _match(sub, sub.in_frame(estimate[sub.anchor], estimate[q]), beams, points,
-                             config, matcher, params)
-                if hit is not None and hit[2] >= config.accept_fit:
-                    found.append((q, relative(sub.anchor_pose, hit[0]), hit[1] * config.information_scale))
-            return s, found
+    def try_submap(s: int, queries: list[tuple[int, float, float]], estimate: np.ndarray):
+        sub = submaps[s]
+        found = []
+        for q, linear, angular in queries:
+            beams = beam_rows(scans[q], reach, matcher.max_beams)
+            points = beam_rows(scans[q], min(matcher.coarse_range, reach), matcher.coarse_beams)[:, :2]
+            if len(points) == 0:
+                continue
+            hit = _match(sub, sub.in_frame(estimate[sub.anchor], estimate[q]), beams, points,
+                         config, matcher, params, linear, angular)
+            accept = config.accept_fit if linear <= config.linear_window else config.wide_accept_fit
+            if hit is not None and hit[2] >= accept:
+                found.append((q, relative(sub.anchor_pose, hit[0]), hit[1] * config.information_scale))
+        return s, found
 
+    def search_and_solve(pairs: dict[int, list[tuple[int, float, float]]], estimate: np.ndarray):
+        if not pairs:
+            return estimate
         result.candidates_tried += sum(len(v) for v in pairs.values())
         with ThreadPoolExecutor(os.cpu_count() or 1) as pool:
-            for s, found in pool.map(lambda item: try_submap(*item), sorted(pairs.items())):
+            for s, found in pool.map(lambda item: try_submap(*item, estimate), sorted(pairs.items())):
                 for q, z, info in found:
                     edges[(s, q)] = (z, info)
         graph = _graph(poses, chain, submaps, edges)
@@ -205,7 +227,26 @@ def close_loops(poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig 
                 del edges[keys[k - (n - 1)]]
             result.rejected_edges += len(bad)
             estimate = optimize(_graph(poses, chain, submaps, edges))
-    result.poses = estimate
+        return estimate
+
+    for _ in range(config.rounds):
+        pairs: dict[int, list[tuple[int, float, float]]] = {}
+        for q in range(n):
+            for s in _candidates(q, estimate, path, submaps, config):
+                if (s, q) not in edges:
+                    pairs.setdefault(s, []).append((q, *narrow))
+        estimate = search_and_solve(pairs, estimate)
+        linked = {q for _, q in edges}
+        pairs = {}
+        for q in range(0, n, config.wide_every):
+            if q in linked:
+                continue
+            for s, linear, angular in _wide_candidates(q, estimate, path, submaps, drift, config):
+                if (s, q) not in tried_wide:
+                    tried_wide.add((s, q))
+                    pairs.setdefault(s, []).append((q, linear, angular))
+        estimate = search_and_solve(pairs, estimate)
+    result.poses = mount.robot_poses(estimate)
     result.loop_edges = len(edges)
     return result, submaps
 
@@ -221,9 +262,10 @@ def per_scan_poses(update_of_scan: np.ndarray, scan_odometry: np.ndarray,
 def scan_poses(submaps: Submaps, update_poses: np.ndarray, update_of_scan: np.ndarray,
                scan_odometry: np.ndarray, update_odometry: np.ndarray, scans: list[Scan],
                config: LoopClosureConfig | None = None, matcher: MatcherParams | None = None,
-               model: SensorModel | None = None) -> np.ndarray:
-    """A pose for every scan: its update's optimised pose moved by the odometry since, then
-    matched finely against that update's submap where it fits well.
+               model: SensorModel | None = None, laser_mount=None) -> np.ndarray:
+    """A robot pose for every scan: its update's optimised pose moved by the odometry since,
+    then matched finely against that update's submap where it fits well (poses and
+    odometry are the robot's, the laser sits at ``laser_mount``).
 
     The filter's own poses are draws from its proposal, each a little off the likeliest
     pose; the match takes the likeliest pose given the submap's other scans, and gives
@@ -231,11 +273,14 @@ def scan_poses(submaps: Submaps, update_poses: np.ndarray, update_of_scan: np.nd
     config = config or LoopClosureConfig()
     matcher = matcher or MatcherParams()
     model = model or SensorModel()
+    mount = LaserMount.of(laser_mount)
     params = matcher.packed()
     reach = min(matcher.max_range, model.usable_range)
     out = per_scan_poses(update_of_scan, scan_odometry, update_odometry, update_poses)
     if not config.enabled:
         return out
+    out = mount.laser_poses(out)
+    update_poses = mount.laser_poses(update_poses)
     by_submap: dict[int, list[int]] = {}
     for k, u in enumerate(update_of_scan):
         by_submap.setdefault(submaps.of_update(int(u)), []).append(k)
@@ -256,17 +301,42 @@ def scan_poses(submaps: Submaps, update_poses: np.ndarray, update_of_scan: np.nd
 
     with ThreadPoolExecutor(os.cpu_count() or 1) as pool:
         list(pool.map(lambda item: refine(*item), sorted(by_submap.items())))
-    return out
+    return mount.robot_poses(out)
 
 
-def _chain_information(poses: np.ndarray, config: LoopClosureConfig) -> np.ndarray:
-    """Information of each filter step: a floor plus noise growing with the step's motion."""
+def _chain_sigmas(poses: np.ndarray, config: LoopClosureConfig) -> tuple[np.ndarray, np.ndarray]:
+    """Standard errors (m, rad) of each filter step: a floor plus noise growing with its motion."""
     rel = relative(poses[:-1], poses[1:])
     dist = np.hypot(rel[:, 0], rel[:, 1])
     sxy = config.chain_sigma_xy + config.chain_sigma_per_metre * dist
     sth = (config.chain_sigma_th + config.chain_sigma_per_radian * np.abs(rel[:, 2])
            + config.chain_sigma_th_per_metre * dist)
-    info = np.zeros((len(rel), 3, 3))
+    return sxy, sth
+
+
+class ChainDrift:
+    """How far the chain of filter steps alone may have drifted between two updates: its
+    steps' translation noise plus each step's heading noise swung over the path after it."""
+
+    def __init__(self, poses: np.ndarray, path: np.ndarray, config: LoopClosureConfig):
+        sxy, sth = _chain_sigmas(poses, config)
+        vth = sth ** 2
+        at = path[:-1]  # where each step's heading error starts to swing the path
+        self._cum = [np.concatenate([[0.0], np.cumsum(v)]) for v in (sxy ** 2, vth, vth * at, vth * at ** 2)]
+        self._path = path
+
+    def sigmas(self, a: np.ndarray | int, b: int) -> tuple[np.ndarray, np.ndarray]:
+        """``(linear, angular)`` standard errors of update ``b`` relative to update(s) ``a < b``."""
+        xy, th, th_p, th_pp = (c[b] - c[a] for c in self._cum)
+        p = self._path[b]
+        lateral = np.maximum(p * p * th - 2.0 * p * th_p + th_pp, 0.0)
+        return np.sqrt(xy + lateral), np.sqrt(th)
+
+
+def _chain_information(poses: np.ndarray, config: LoopClosureConfig) -> np.ndarray:
+    """Information of each filter step (:func:`_chain_sigmas`)."""
+    sxy, sth = _chain_sigmas(poses, config)
+    info = np.zeros((len(sxy), 3, 3))
     info[:, 0, 0] = info[:, 1, 1] = 1.0 / sxy ** 2
     info[:, 2, 2] = 1.0 / sth ** 2
     return info
@@ -289,3 +359,20 @@ def _candidates(q: int, estimate: np.ndarray, path: np.ndarray, submaps: Submaps
     d = np.hypot(*(estimate[submaps.anchors[old], :2] - estimate[q, :2]).T)
     near = np.argsort(d)[:config.candidates]
     return [int(old[k]) for k in near if d[k] < config.search_radius]
+
+
+def _wide_candidates(q: int, estimate: np.ndarray, path: np.ndarray, submaps: Submaps, drift: ChainDrift,
+                     config: LoopClosureConfig) -> list[tuple[int, float, float]]:
+    """``(submap, linear, angular)``: the nearest submaps (at most ``wide_candidates``) passed
+    long before update ``q`` that the chain's drift between them may have moved within
+    ``search_radius`` of it, with the window that drift asks for."""
+    old = np.flatnonzero(path[q] - path[submaps.ends] >= config.min_loop_path)
+    if len(old) == 0:
+        return []
+    sxy, sth = drift.sigmas(submaps.anchors[old], q)
+    linear = np.clip(config.window_sigmas * sxy, config.linear_window, config.max_linear_window)
+    angular = np.clip(config.window_sigmas * sth, config.angular_window, config.max_angular_window)
+    d = np.hypot(*(estimate[submaps.anchors[old], :2] - estimate[q, :2]).T)
+    reachable = np.flatnonzero((d < config.search_radius + linear) & (linear > config.linear_window))
+    near = reachable[np.argsort(d[reachable])[:config.wide_candidates]]
+    return [(int(old[k]), float(linear[k]), float(angular[k])) for k in near]

@@ -25,12 +25,19 @@ from typing import BinaryIO
 
 import numpy as np
 
+from slam_core.geometry import relative, wrap_angle
 from slam_core.scan import Scan, uniform_angles
+
+#: Largest pose or odometry value accepted (m, rad, m/s): larger ones are garbage, not travel.
+MAX_POSE_VALUE = 1e6
 
 #: Readings at or above this many metres mean "no return" in FLASER logs (81.83 / 81.91).
 FLASER_NO_RETURN = 80.0
 #: Readings below this are not measurements.
 FLASER_RANGE_MIN = 0.01
+#: Laser records read to tell a log's laser mount; how far (m, rad) their offsets may disagree.
+MOUNT_RECORDS = 200
+MOUNT_TOLERANCE = 1e-3
 
 KNOWN_OTHER_MESSAGES = ("SYNC", "TRUEPOS", "RAWLASER", "ROBOTLASER0", "NMEA", "LASER",
                         "REMISSION", "GPS", "SONAR", "BUMPER", "IMU", "POSITIONLASER")
@@ -199,6 +206,9 @@ class CarmenReader:
         if finite and not np.isfinite(values).all():
             text = " ".join(fields[start:start + count])
             raise LogFormatError(self.path, line_number, f"{what}: not finite ({text})")
+        if finite and np.abs(values).max() > MAX_POSE_VALUE:
+            raise LogFormatError(self.path, line_number, f"{what}: a value beyond ±{MAX_POSE_VALUE:g} "
+                                                         "(no robot travels that far)")
         return values
 
     def _stamp(self, fields, start, line_number, kind) -> Stamp:
@@ -307,3 +317,29 @@ def laser_records(path, progress=None) -> Iterator[LaserRecord]:
     for record in CarmenReader(path, progress=progress):
         if isinstance(record, LaserRecord):
             yield record
+
+
+def laser_mount_of(path, records: int = MOUNT_RECORDS) -> np.ndarray | None:
+    """The laser's pose in the robot frame, ``(x, y, theta)``, from a log's first laser records.
+
+    Each laser line carries the laser's pose beside the robot's odometry pose; on a log
+    that records the mount both differ by the same offset on every line. ``None`` when
+    the offsets disagree (a log whose laser pose was corrected by some estimator), so
+    the laser pose says nothing about the mount.
+    """
+    offsets = []
+    try:
+        for record in laser_records(path):
+            offsets.append(relative(record.odom, record.pose))
+            if len(offsets) >= records:
+                break
+    except TruncatedLogError:
+        pass  # the records before the cut are all there is
+    if not offsets:
+        return None
+    offsets = np.array(offsets)
+    spread = offsets - offsets[0]
+    spread[:, 2] = wrap_angle(spread[:, 2])
+    if np.abs(spread).max() > MOUNT_TOLERANCE:
+        return None
+    return np.round(offsets[0], 6) + 0.0  # a micrometre: rounding noise is no mount (and no -0.0)

@@ -27,7 +27,10 @@ UNKNOWN_VALUE = 205
 
 
 class MapFileError(ValueError):
-    """A map YAML or image that cannot be used, with the reason."""
+    """A map YAML or image that cannot be used: ``path`` (the file) and ``problem`` (what is wrong)."""
+
+    path: Path
+    problem: str
 
 
 def save_map(grid: OccupancyGrid, stem) -> tuple[Path, Path]:
@@ -54,45 +57,117 @@ def save_map(grid: OccupancyGrid, stem) -> tuple[Path, Path]:
     return pgm, yml
 
 
-def load_map(yaml_path) -> OccupancyGrid:
+#: Largest map image accepted (pixels), checked from the image header before any decoding.
+MAX_MAP_CELLS = 4096 * 4096
+#: Largest map YAML read (bytes); real ones are a few hundred.
+MAX_YAML_BYTES = 64 * 1024
+#: Origins farther than this from zero (m) are refused: no home is that large.
+MAX_ORIGIN_M = 1e5
+#: Resolutions accepted (m per pixel).
+RESOLUTION_RANGE = (1e-4, 10.0)
+
+
+def _problem(path: Path, problem: str) -> MapFileError:
+    error = MapFileError(f"{path}: {problem}")
+    error.path, error.problem = path, problem
+    return error
+
+
+def _read_meta(yaml_path: Path) -> dict:
+    try:
+        if yaml_path.stat().st_size > MAX_YAML_BYTES:
+            raise _problem(yaml_path, f"map YAML larger than {MAX_YAML_BYTES} bytes")
+        meta = yaml.safe_load(yaml_path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
+        reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else type(exc).__name__
+        raise _problem(yaml_path, f"cannot read map YAML ({reason})") from exc
+    if not isinstance(meta, dict):
+        raise _problem(yaml_path, "map YAML must be a mapping")
+    for key in ("image", "resolution", "origin"):
+        if key not in meta:
+            raise _problem(yaml_path, f"missing key {key!r}")
+    if not isinstance(meta["image"], str) or not meta["image"]:
+        raise _problem(yaml_path, "'image' must be a file name")
+    return meta
+
+
+def _number(yaml_path: Path, meta: dict, key: str, default=None) -> float:
+    value = meta.get(key, default)
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise _problem(yaml_path, f"resolution, origin and thresholds must be numbers ({key}: {value!r})")
+    if not np.isfinite(value):
+        raise _problem(yaml_path, f"{key} must be finite, got {value}")
+    return float(value)
+
+
+def _checked_meta(yaml_path: Path, meta: dict) -> tuple[float, list[float], float, float, str]:
+    """Resolution, origin, thresholds and mode, each finite and within range."""
+    resolution = _number(yaml_path, meta, "resolution")
+    origin = meta["origin"]
+    if not isinstance(origin, list):
+        raise _problem(yaml_path, f"resolution, origin and thresholds must be numbers (origin: {origin!r})")
+    origin = [_number(yaml_path, {"origin": v}, "origin") for v in origin]
+    occ_th = _number(yaml_path, meta, "occupied_thresh", OCCUPIED_THRESH)
+    free_th = _number(yaml_path, meta, "free_thresh", FREE_THRESH)
+    if not resolution > 0 or len(origin) != 3:
+        raise _problem(yaml_path, "need resolution > 0 and origin [x, y, yaw]")
+    if not RESOLUTION_RANGE[0] <= resolution <= RESOLUTION_RANGE[1]:
+        raise _problem(yaml_path, f"resolution {resolution:g} m outside {RESOLUTION_RANGE[0]:g}.."
+                                  f"{RESOLUTION_RANGE[1]:g}")
+    if max(abs(origin[0]), abs(origin[1])) > MAX_ORIGIN_M:
+        raise _problem(yaml_path, f"origin farther than {MAX_ORIGIN_M:g} m from zero")
+    if abs(origin[2]) > 1e-9:
+        raise _problem(yaml_path, f"rotated map origins (yaw {origin[2]:g}) are not supported")
+    if not 0.0 <= free_th < occ_th <= 1.0:
+        raise _problem(yaml_path, "need 0 <= free_thresh < occupied_thresh <= 1, "
+                                  f"got {free_th:g}, {occ_th:g}")
+    mode = meta.get("mode", "trinary")
+    if mode not in ("trinary", "scale", "raw"):
+        raise _problem(yaml_path, f"unknown mode {mode!r}")
+    if meta.get("negate", 0) not in (0, 1):
+        raise _problem(yaml_path, f"negate must be 0 or 1, got {meta.get('negate')!r}")
+    return resolution, origin, occ_th, free_th, mode
+
+
+def _read_pixels(image_path: Path, max_cells: int) -> np.ndarray:
+    """The image as grey values, its size checked from the header before decoding."""
+    try:
+        with Image.open(image_path) as img:
+            width, height = img.size
+            if width * height > max_cells:
+                raise _problem(image_path, f"map image {width} x {height} is too large (more than "
+                                           f"{max_cells} cells)")
+            return np.asarray(_to_gray(img), dtype=np.float64)
+    except MapFileError:
+        raise
+    except Image.DecompressionBombError as exc:
+        raise _problem(image_path, "map image is too large (decompression bomb)") from exc
+    except Image.UnidentifiedImageError as exc:
+        raise _problem(image_path, "cannot read map image (not a picture format homebot reads)") from exc
+    except (OSError, SyntaxError, ValueError) as exc:
+        reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc) or type(exc).__name__
+        reason = reason.replace(str(image_path), image_path.name)  # the caller decides how much path to show
+        raise _problem(image_path, f"cannot read map image ({reason})") from exc
+
+
+def load_map(yaml_path, max_cells: int = MAX_MAP_CELLS) -> OccupancyGrid:
     """Read a map_server YAML and its image into an :class:`OccupancyGrid`.
 
     Occupied cells get the grid's upper clamp, free cells the lower one, unknown
     cells 0 (p = 0.5). A non-zero origin yaw is refused: homebot grids are axis-aligned.
+    Every field is checked (finite, in range) and the image's size is read from its
+    header before it is decoded; any problem is a :class:`MapFileError` whose
+    ``problem`` names it (``path`` is the file).
     """
     yaml_path = Path(yaml_path)
-    try:
-        meta = yaml.safe_load(yaml_path.read_text())
-    except (OSError, yaml.YAMLError) as exc:
-        raise MapFileError(f"{yaml_path}: cannot read map YAML ({exc})") from exc
-    if not isinstance(meta, dict):
-        raise MapFileError(f"{yaml_path}: map YAML must be a mapping")
-    for key in ("image", "resolution", "origin"):
-        if key not in meta:
-            raise MapFileError(f"{yaml_path}: missing key {key!r}")
-    try:
-        resolution = float(meta["resolution"])
-        origin = [float(v) for v in meta["origin"]]
-        occ_th = float(meta.get("occupied_thresh", OCCUPIED_THRESH))
-        free_th = float(meta.get("free_thresh", FREE_THRESH))
-    except (TypeError, ValueError) as exc:
-        raise MapFileError(f"{yaml_path}: resolution, origin and thresholds must be numbers ({exc})") from exc
-    if not resolution > 0 or len(origin) != 3:
-        raise MapFileError(f"{yaml_path}: need resolution > 0 and origin [x, y, yaw]")
-    if abs(origin[2]) > 1e-9:
-        raise MapFileError(f"{yaml_path}: rotated map origins (yaw {origin[2]}) are not supported")
-    mode = meta.get("mode", "trinary")
-    if mode not in ("trinary", "scale", "raw"):
-        raise MapFileError(f"{yaml_path}: unknown mode {mode!r}")
+    meta = _read_meta(yaml_path)
+    resolution, origin, occ_th, free_th, mode = _checked_meta(yaml_path, meta)
     image_path = Path(meta["image"])
     if not image_path.is_absolute():
         image_path = yaml_path.parent / image_path
-    try:
-        with Image.open(image_path) as img:
-            pixels = np.asarray(_to_gray(img), dtype=np.float64)
-    except OSError as exc:
-        raise MapFileError(f"{image_path}: cannot read map image ({exc})") from exc
-    pixels = np.flipud(pixels)
+    pixels = np.flipud(_read_pixels(image_path, max_cells))
+    if pixels.ndim != 2 or pixels.size == 0:
+        raise _problem(image_path, "map image must be a non-empty grey image")
     grid = OccupancyGrid(resolution, origin[:2], shape=pixels.shape)
     m = grid.model
     if mode == "raw":

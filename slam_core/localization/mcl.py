@@ -8,7 +8,13 @@ threshold, KLD-sampling for the particle count (Fox 2003), and augmented MCL
 of the measurement likelihood; each resampled particle is replaced by a random
 pose in free space with probability ``max(0, 1 - w_fast / w_slow)``.
 
-The published pose is the weighted mean of the heaviest particle cluster.
+The published pose is the tracked one (:mod:`slam_core.localization.tracking`:
+odometry, then scan-to-map matching on every scan) while there is a track, else
+the weighted mean of the heaviest particle cluster. The filter runs on its own
+and checks the track: a track starts from a known pose or from the converged
+main cluster, and restarts there when the converged cloud disagrees with it.
+While the track holds no random particles are injected, and the robot is
+*localized*.
 """
 
 from __future__ import annotations
@@ -25,6 +31,7 @@ from slam_core.localization.clustering import Cluster, main_cluster
 from slam_core.localization.kld import adaptive_count, pose_bins
 from slam_core.localization.known_map import KnownMap
 from slam_core.localization.likelihood_field import LikelihoodFieldModel, LikelihoodFieldParams
+from slam_core.localization.tracking import PoseTracker, TrackingConfig, tracking_points
 from slam_core.motion_model import OdometryMotionModel
 from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.resampling import effective_sample_size, low_variance_resample
@@ -71,6 +78,10 @@ class MclConfig:
     #: and has corrected at least this many times since it was (re)initialized.
     localized_max_injection: float = 0.3
     localized_min_updates: int = 5
+    tracking: TrackingConfig = field(default_factory=TrackingConfig)
+    #: A converged cloud this far (m, rad) from the track restarts the track at the cloud.
+    disagree_xy: float = 0.3
+    disagree_theta: float = np.radians(6.0)
 
     def __post_init__(self):
         if not 1 <= self.min_particles <= self.max_particles:
@@ -118,6 +129,8 @@ class MonteCarloLocalizer:
             self.sensor = LikelihoodFieldModel(self.map, self.config.likelihood_field)
         self._last_odom: np.ndarray | None = None
         self._estimate: Estimate | None = None
+        self.tracker = PoseTracker(self.map, self.config.tracking)
+        self.filter_updated = False
         self.status = MclStatus(0, 0.0, False, 0.0, 0.0, 0.0, 0)
         if initial_pose is None:
             self.global_localization()
@@ -128,6 +141,7 @@ class MonteCarloLocalizer:
     def global_localization(self) -> None:
         """Forget the pose: ``max_particles`` uniform over free space, any heading."""
         self._reset(self.map.sample_free_poses(self.config.max_particles, self.rng))
+        self.tracker.lose()
 
     def set_pose(self, pose, covariance=None) -> None:
         """"I am here": particles drawn from a Gaussian around ``pose`` (x, y, theta)."""
@@ -143,6 +157,7 @@ class MonteCarloLocalizer:
         particles = self.rng.multivariate_normal(pose, cov, size=n, method="eigh")
         particles[:, 2] = wrap_angle(particles[:, 2])
         self._reset(particles)
+        self.tracker.start(pose)
 
     def _reset(self, particles: np.ndarray) -> None:
         self.particles = np.ascontiguousarray(particles, dtype=np.float64)
@@ -155,14 +170,23 @@ class MonteCarloLocalizer:
 
     # -- the filter -----------------------------------------------------------------------
     def step(self, odometry, scan: Scan) -> bool:
-        """Predict with the odometry since the last update and correct with ``scan``.
+        """Track the pose on every scan; run the particle filter when the robot moved enough.
 
-        The first call only corrects; later calls wait until the robot moved
-        ``update_min_d`` or turned ``update_min_a`` (returns False meanwhile).
+        The filter's first call only corrects; later calls wait until the robot moved
+        ``update_min_d`` or turned ``update_min_a`` (``filter_updated`` says whether it
+        ran). Returns True when the published pose is up to date with ``odometry`` (a
+        track, or a filter update), False when it is the filter's last estimate.
         """
         odom = np.asarray(odometry, dtype=np.float64).reshape(-1)
         if odom.shape != (3,) or not np.all(np.isfinite(odom)):
             raise ValueError(f"odometry must be three finite numbers (x, y, theta), got {odom}")
+        self.tracker.predict(odom)
+        self.filter_updated = self._filter_step(odom, scan)
+        self._track(scan, self.filter_updated)
+        self._estimate = None
+        return self.filter_updated or self.tracker.tracking
+
+    def _filter_step(self, odom: np.ndarray, scan: Scan) -> bool:
         cfg = self.config
         if self._last_odom is not None:
             delta = relative(self._last_odom, odom)
@@ -173,6 +197,35 @@ class MonteCarloLocalizer:
         self._correct(scan)
         self.updates_since_reset += 1
         return True
+
+    def _track(self, scan: Scan, filter_updated: bool) -> None:
+        """Match the tracked pose; (re)start the track from the cloud when it converged elsewhere."""
+        cfg = self.config
+        points = tracking_points(scan, cfg.laser_pose, cfg.tracking.beams, cfg.tracking.max_range)
+        if self.tracker.tracking:
+            self.tracker.correct(points)
+        if filter_updated and self._converged():
+            mean = self.main_cluster().pose
+            if self.tracker.tracking and self._disagrees(mean, self.tracker.pose):
+                self.tracker.lose()
+            if not self.tracker.tracking:
+                self.tracker.try_start(mean, points)
+
+    def _converged(self) -> bool:
+        """The cloud has one tight dominant cluster and is not busy injecting random guesses."""
+        cfg = self.config
+        c = self.main_cluster()
+        xy_std = float(np.sqrt(max(c.covariance[0, 0], c.covariance[1, 1])))
+        return (c.weight >= cfg.localized_weight and xy_std <= cfg.localized_xy_std
+                and np.sqrt(c.covariance[2, 2]) <= cfg.localized_theta_std
+                and self.status.injection <= cfg.localized_max_injection
+                and self.updates_since_reset >= cfg.localized_min_updates)
+
+    def _disagrees(self, mean: np.ndarray, tracked: np.ndarray) -> bool:
+        """Whether a converged cloud's mean and the track are too far apart to be the same pose."""
+        off = relative(mean, tracked)
+        cfg = self.config
+        return bool(np.hypot(off[0], off[1]) > cfg.disagree_xy or abs(off[2]) > cfg.disagree_theta)
 
     def _correct(self, scan: Scan) -> None:
         cfg = self.config
@@ -196,6 +249,8 @@ class MonteCarloLocalizer:
             self.w_slow += cfg.alpha_slow * (w_avg - self.w_slow)
             self.w_fast += cfg.alpha_fast * (w_avg - self.w_fast)
         injection = max(0.0, 1.0 - self.w_fast / self.w_slow) if cfg.alpha_slow > 0 else 0.0
+        if self.tracker.tracking and self.tracker.misses == 0:
+            injection = 0.0  # the map explains the scans: no random guesses
         log_w = np.log(self.weights) + log_lik
         w = np.exp(log_w - log_w.max())
         self.weights = w / w.sum()
@@ -228,17 +283,13 @@ class MonteCarloLocalizer:
         return main_cluster(self.particles, self.weights, cfg.cluster_xy, cfg.cluster_theta_bins)
 
     def estimate(self) -> Estimate:
-        """Weighted mean and covariance of the main cluster; ``localized`` when it is tight."""
+        """The tracked pose while there is a track (``localized``), else the main cluster's mean."""
         if self._estimate is None:
-            cfg = self.config
             c = self.main_cluster()
-            xy_std = float(np.sqrt(max(c.covariance[0, 0], c.covariance[1, 1])))
-            localized = (c.weight >= cfg.localized_weight and xy_std <= cfg.localized_xy_std
-                         and np.sqrt(c.covariance[2, 2]) <= cfg.localized_theta_std
-                         and self.status.injection <= cfg.localized_max_injection
-                         and self.updates_since_reset >= cfg.localized_min_updates)
-            self._estimate = Estimate(pose=c.pose, covariance=c.covariance, particles=self.particles,
-                                      weights=self.weights, localized=bool(localized))
+            tracking = self.tracker.tracking
+            pose = self.tracker.pose.copy() if tracking else c.pose
+            self._estimate = Estimate(pose=pose, covariance=c.covariance, particles=self.particles,
+                                      weights=self.weights, localized=tracking)
         return self._estimate
 
     def occupancy_map(self) -> OccupancyGrid:

@@ -47,9 +47,9 @@ def replay_log(log_path, grid: OccupancyGrid, config: MclConfig | None = None, i
     try:
         for record in laser_records(log_path, progress=progress):
             tick = time.perf_counter()
-            updated = mcl.step(record.pose, record.scan)
+            mcl.step(record.pose, record.scan)
             estimate = mcl.estimate()
-            if updated:
+            if mcl.filter_updated:
                 run.updates += 1
                 run.update_seconds.append(time.perf_counter() - tick)
             t0 = record.stamp.ipc_time if t0 is None else t0

@@ -8,17 +8,19 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from slam_core.graph.loop_closure import LoopClosureResult, close_loops, per_scan_poses, scan_poses
-from slam_core.io.carmen import TruncatedLogError, laser_records
+from slam_core.io.carmen import TruncatedLogError, laser_mount_of, laser_records
 from slam_core.io.trajectory import Trajectory
 from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.rbpf import RBPFConfig, RBPFSlam, RBPFStats
+from slam_core.rbpf.laser_mount import LaserMount
 
 
 @dataclass
 class SlamRun:
     """What the filter did, its best particle's trajectory for every scan
     (``particle_trajectory``) and the result: the trajectory and map after loop closing
-    (the particle's own when the back end is off)."""
+    (the particle's own when the back end is off). Trajectories are the robot's; the
+    laser sat at ``laser_mount``."""
 
     stats: RBPFStats
     map_bytes: int
@@ -31,13 +33,22 @@ class SlamRun:
     log_duration: float
     loop_closure: LoopClosureResult | None = None
     warnings: list[str] = field(default_factory=list)
+    laser_mount: LaserMount = field(default_factory=LaserMount)
 
 
 def slam_from_log(log_path, config: RBPFConfig | None = None, seed: int = 0,
-                  on_scan=None) -> SlamRun:
+                  on_scan=None, laser_mount=None) -> SlamRun:
     """Feed every laser record of a log to a fresh filter, then close its loops;
-    ``on_scan()`` is called per record."""
+    ``on_scan()`` is called per record. ``laser_mount`` (the laser's pose in the robot
+    frame) defaults to the offset between the laser and odometry poses of the log's lines."""
     config = config or RBPFConfig()
+    warnings: list[str] = []
+    if laser_mount is None:
+        laser_mount = laser_mount_of(log_path)
+        if laser_mount is None:
+            warnings.append("the log's laser poses are no fixed offset from its odometry: "
+                            "laser mount taken as (0, 0, 0)")
+    mount = LaserMount.of(laser_mount)
     stamps: list[str] = []
     times: list[float] = []
     odometry: list[np.ndarray] = []
@@ -45,12 +56,11 @@ def slam_from_log(log_path, config: RBPFConfig | None = None, seed: int = 0,
     update_of_scan: list[int] = []
     is_update: list[bool] = []
     slam: RBPFSlam | None = None
-    warnings: list[str] = []
     started = time.perf_counter()
     try:
         for record in laser_records(log_path):
             if slam is None:
-                slam = RBPFSlam(config, seed=seed, initial_pose=record.odom)
+                slam = RBPFSlam(config, seed=seed, initial_pose=record.odom, laser_mount=mount)
             is_update.append(slam.step(record.odom, record.scan))
             stamps.append(record.stamp.ipc_text)
             times.append(record.stamp.ipc_time)
@@ -64,30 +74,56 @@ def slam_from_log(log_path, config: RBPFConfig | None = None, seed: int = 0,
     if slam is None:
         raise ValueError(f"{log_path}: no laser records")
     filter_time = time.perf_counter() - started
-    updates, poses = slam.best_path()
-    update_poses = np.empty((slam.stats.updates, 3))
-    update_poses[updates] = poses
     update_of_scan = np.array(update_of_scan)
     is_update = np.array(is_update)
     odometry = np.array(odometry)
-    update_odometry = np.array(slam.update_odometry)
-    particle = Trajectory(stamps, per_scan_poses(update_of_scan, odometry, update_odometry, update_poses))
+    best = best_updates(slam)
+    particle = Trajectory(stamps, per_scan_poses(update_of_scan, odometry, best.odometry, best.poses))
     duration = float(np.max(times) - np.min(times))
     filtered = (slam.stats, slam.map_bytes(), slam.maps.tiles_in_use)
-    lc = config.loop_closure
-    if not lc.enabled:
+    if not config.loop_closure.enabled:
         return SlamRun(*filtered, particle, particle, slam.occupancy_map(), filter_time, filter_time,
-                       duration, None, warnings)
+                       duration, None, warnings, mount)
     del slam  # the particles' maps: the back end renders its own
-    update_scans = [scans[k] for k in np.flatnonzero(is_update)]
-    closed, submaps = close_loops(update_poses, update_scans, lc, config.matcher, config.resolution,
-                                  config.sensor)
-    final = scan_poses(submaps, closed.poses, update_of_scan, odometry, update_odometry, scans, lc,
-                       config.matcher, config.sensor)
-    del submaps
-    grid = OccupancyGrid(config.resolution, model=config.sensor)
-    for pose, scan in zip(final[is_update], update_scans, strict=True):
-        grid.integrate(scan, pose)
+    final, grid, closed = close_filter_loops(config, best, update_of_scan, is_update, odometry, scans,
+                                             mount)
     wall = time.perf_counter() - started
     return SlamRun(*filtered, particle, Trajectory(stamps, final), grid, wall, filter_time, duration,
-                   closed, warnings)
+                   closed, warnings, mount)
+
+
+@dataclass(frozen=True)
+class BestUpdates:
+    """The best particle's pose at every filter update and the odometry of those updates."""
+
+    poses: np.ndarray
+    odometry: np.ndarray
+
+
+def best_updates(slam: RBPFSlam) -> BestUpdates:
+    updates, poses = slam.best_path()
+    update_poses = np.empty((slam.stats.updates, 3))
+    update_poses[updates] = poses
+    return BestUpdates(update_poses, np.array(slam.update_odometry))
+
+
+def close_filter_loops(config: RBPFConfig, best: BestUpdates, update_of_scan: np.ndarray,
+                       is_update: np.ndarray, odometry: np.ndarray, scans: list,
+                       mount: LaserMount | None = None
+                       ) -> tuple[np.ndarray, OccupancyGrid, LoopClosureResult]:
+    """The back end after the filter: close the best particle's loops, give every scan a pose
+    (``update_of_scan``: each scan's last update; ``is_update``: the scans the filter updated
+    with) and render the map from the optimised poses of the updates (robot poses; the laser
+    sat at ``mount``)."""
+    mount = mount or LaserMount()
+    lc = config.loop_closure
+    update_scans = [scans[k] for k in np.flatnonzero(is_update)]
+    closed, submaps = close_loops(best.poses, update_scans, lc, config.matcher, config.resolution,
+                                  config.sensor, mount)
+    final = scan_poses(submaps, closed.poses, update_of_scan, odometry, best.odometry, scans, lc,
+                       config.matcher, config.sensor, mount)
+    del submaps
+    grid = OccupancyGrid(config.resolution, model=config.sensor)
+    for pose, scan in zip(mount.laser_poses(final[is_update]), update_scans, strict=True):
+        grid.integrate(scan, pose)
+    return final, grid, closed

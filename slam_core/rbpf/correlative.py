@@ -89,7 +89,7 @@ def _bound(pooled, block, cells_x, cells_y, dx, dy):
 
 
 @njit
-def _cells(px, py, th, points, window_x, window_y, inv, cells_x, cells_y):
+def endpoint_cells(px, py, th, points, window_x, window_y, inv, cells_x, cells_y):
     """The field cells of ``points`` (robot frame) seen from ``(px, py, th)``."""
     c = np.cos(th)
     s = np.sin(th)
@@ -116,7 +116,7 @@ def search(field, resolution, window_x, window_y, px, py, pth, points, angular_h
     inv = 1.0 / resolution
     for r in range(-n_rot, n_rot + 1):
         th = pth + r * angular_step
-        _cells(px, py, th, points, window_x, window_y, inv, cells_x, cells_y)
+        endpoint_cells(px, py, th, points, window_x, window_y, inv, cells_x, cells_y)
         prior_th = (r * angular_step) ** 2 / (sigma_th * sigma_th)
         for dy in range(-linear_cells, linear_cells + 1):
             for dx in range(-linear_cells, linear_cells + 1):
@@ -171,7 +171,7 @@ def bounded_search(field, pooled, block, resolution, window_x, window_y, px, py,
     cells_y = np.empty((rotations, n_pts), np.int64)
     inv = 1.0 / resolution
     for r in range(rotations):
-        _cells(px, py, pth + (r - n_rot) * angular_step, points, window_x, window_y, inv, cells_x[r],
+        endpoint_cells(px, py, pth + (r - n_rot) * angular_step, points, window_x, window_y, inv, cells_x[r],
                cells_y[r])
     width = 2 * linear_cells + 1
     blocks = (width + block - 1) // block

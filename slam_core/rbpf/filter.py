@@ -32,6 +32,7 @@ from slam_core.motion_model import decompose
 from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.rbpf.config import RBPFConfig
 from slam_core.rbpf.correlative import likelihood_window, search
+from slam_core.rbpf.laser_mount import LaserMount
 from slam_core.rbpf.proposal import improved_proposal
 from slam_core.rbpf.scan_matcher import P_OCCUPIED, beam_rows, match, pose_likelihood
 from slam_core.rbpf.tiled_map import TiledMaps
@@ -62,16 +63,23 @@ class RBPFStats:
 
 
 class RBPFSlam:
-    """The incremental filter: feed ``step(odometry, scan)``; read ``estimate()`` and maps."""
+    """The incremental filter: feed ``step(odometry, scan)``; read ``estimate()`` and maps.
 
-    def __init__(self, config: RBPFConfig | None = None, seed: int = 0, initial_pose=(0.0, 0.0, 0.0)):
+    ``laser_mount`` is the laser's pose ``(x, y, theta)`` in the robot frame. Particles
+    carry the laser's pose (scans are matched and drawn from there); odometry in, poses
+    out (``estimate``, ``best_path``, ``update_odometry``) are the robot's.
+    """
+
+    def __init__(self, config: RBPFConfig | None = None, seed: int = 0, initial_pose=(0.0, 0.0, 0.0),
+                 laser_mount=(0.0, 0.0, 0.0)):
         self.config = config or RBPFConfig()
+        self.mount = LaserMount.of(laser_mount)
         n = self.config.particles
         if n < 1:
             raise ValueError("need at least one particle")
         self.rng = np.random.default_rng(seed)
         self.maps = TiledMaps(n, self.config.resolution, self.config.sensor)
-        self.poses = np.tile(np.asarray(initial_pose, dtype=float), (n, 1))
+        self.poses = np.tile(self.mount.laser_poses(initial_pose), (n, 1))
         self.log_weights = np.zeros(n)
         self.path_scores = np.zeros(n)
         self.tree = TrajectoryTree()
@@ -85,8 +93,15 @@ class RBPFSlam:
     # -- the estimator interface --------------------------------------------------
 
     def step(self, odometry, scan: Scan) -> bool:
-        """Process one odometry pose with its scan; True when the filter updated."""
-        odometry = np.asarray(odometry, dtype=float)
+        """Process one odometry pose (the robot's) with its scan; True when the filter updated."""
+        robot_odometry = np.asarray(odometry, dtype=float)
+        updated = self._step(self.mount.laser_poses(robot_odometry), scan)
+        if updated:
+            self.update_odometry.append(robot_odometry.copy())
+        return updated
+
+    def _step(self, odometry: np.ndarray, scan: Scan) -> bool:
+        """``step`` with the laser's odometry."""
         self.stats.scans += 1
         if self._last_odom is None:
             self._first_update(odometry, scan)
@@ -103,14 +118,14 @@ class RBPFSlam:
         return True
 
     def estimate(self) -> Estimate:
-        """Weighted mean pose (circular mean heading) with the particle cloud."""
+        """Weighted mean robot pose (circular mean heading) with the particle cloud."""
         w = normalized(self.log_weights)
-        mean = mean_pose(self.poses, w)
-        d = self.poses - mean
+        robot = self.mount.robot_poses(self.poses)
+        mean = mean_pose(robot, w)
+        d = robot - mean
         d[:, 2] = wrap_angle(d[:, 2])
         cov = (d * w[:, None]).T @ d
-        return Estimate(pose=mean, covariance=cov, particles=self.poses.copy(), weights=w,
-                        localized=True)
+        return Estimate(pose=mean, covariance=cov, particles=robot.copy(), weights=w, localized=True)
 
     def occupancy_map(self) -> OccupancyGrid:
         """The best particle's map."""
@@ -123,8 +138,9 @@ class RBPFSlam:
         return int(np.argmax(self.path_scores))
 
     def best_path(self) -> tuple[np.ndarray, np.ndarray]:
-        """``(update indices, poses)`` of the best particle's trajectory at every update."""
-        return self.tree.path(int(self.nodes[self.best_index()]))
+        """``(update indices, robot poses)`` of the best particle's trajectory at every update."""
+        updates, poses = self.tree.path(int(self.nodes[self.best_index()]))
+        return updates, self.mount.robot_poses(poses)
 
     def map_bytes(self) -> int:
         return self.maps.nbytes()
@@ -186,7 +202,6 @@ class RBPFSlam:
 
     def _finish_update(self, odometry: np.ndarray) -> None:
         self.nodes = self.tree.add(self.nodes, self.stats.updates, self.poses)
-        self.update_odometry.append(odometry.copy())
         self._last_odom = odometry.copy()
         self.stats.updates += 1
 

@@ -246,22 +246,38 @@ class TiledMaps:
 
     def to_grid(self, index: int) -> OccupancyGrid:
         """Map ``index`` as a dense :class:`OccupancyGrid` (cropped to its known tiles)."""
-        table = self.tables[index]
-        used = np.argwhere(table >= 0)
         grid = OccupancyGrid(self.resolution, self.origin, model=self.model)
-        if len(used) == 0:
-            return grid
-        (ty0, tx0), (ty1, tx1) = used.min(axis=0), used.max(axis=0)
-        data = np.zeros(((ty1 - ty0 + 1) * TILE, (tx1 - tx0 + 1) * TILE), np.float32)
-        for ty, tx in used:
-            y, x = (ty - ty0) * TILE, (tx - tx0) * TILE
-            data[y:y + TILE, x:x + TILE] = self.lo[table[ty, tx]]
-        grid.data = data
-        grid.origin = self.origin + np.array([tx0, ty0]) * self.tile_size
+        dense = self._dense(index, self.lo)
+        if dense is not None:
+            grid.data, grid.origin = dense
         return grid
 
-    def seed_from_grid(self, grid: OccupancyGrid) -> None:
-        """Start every map as the same copy of ``grid`` (e.g. a checkpoint); hits from occupied cells."""
+    def hit_sums(self, index: int) -> np.ndarray:
+        """Map ``index``'s per-cell hit sums ``(ny, nx, 3)`` (``HIT_*``), aligned with :meth:`to_grid`."""
+        dense = self._dense(index, self.hits)
+        return np.zeros((0, 0, 3), np.float32) if dense is None else dense[0]
+
+    def _dense(self, index: int, pool: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        """``pool``'s tiles of map ``index`` as one array over its known tiles, and that array's origin."""
+        table = self.tables[index]
+        used = np.argwhere(table >= 0)
+        if len(used) == 0:
+            return None
+        (ty0, tx0), (ty1, tx1) = used.min(axis=0), used.max(axis=0)
+        data = np.zeros(((ty1 - ty0 + 1) * TILE, (tx1 - tx0 + 1) * TILE, *pool.shape[3:]), np.float32)
+        for ty, tx in used:
+            y, x = (ty - ty0) * TILE, (tx - tx0) * TILE
+            data[y:y + TILE, x:x + TILE] = pool[table[ty, tx]]
+        return data, self.origin + np.array([tx0, ty0]) * self.tile_size
+
+    def seed_from_grid(self, grid: OccupancyGrid, hit_sums: np.ndarray | None = None) -> None:
+        """Start every map as the same copy of ``grid`` (e.g. a checkpoint).
+
+        ``hit_sums`` (as :meth:`hit_sums` gives them) restore the endpoints exactly; without them
+        every occupied cell gets one hit at its centre.
+        """
+        if hit_sums is not None and hit_sums.shape != (*grid.shape, 3):
+            raise ValueError(f"hit sums of shape {hit_sums.shape} do not fit a {grid.shape} grid")
         if abs(grid.resolution - self.resolution) > 1e-12:
             raise ValueError(f"grid resolution {grid.resolution} != map resolution {self.resolution}")
         x0, y0, x1, y1 = grid.extent()
@@ -277,17 +293,20 @@ class TiledMaps:
                 block = np.zeros((TILE, TILE), np.float32)
                 gy0, gx0 = ty * TILE - offset[1], tx * TILE - offset[0]
                 sy, sx = slice(max(gy0, 0), min(gy0 + TILE, ny)), slice(max(gx0, 0), min(gx0 + TILE, nx))
-                src = grid.data[sy, sx]
-                block[sy.start - gy0:sy.stop - gy0, sx.start - gx0:sx.stop - gx0] = src
+                inside = slice(sy.start - gy0, sy.stop - gy0), slice(sx.start - gx0, sx.stop - gx0)
+                block[inside] = grid.data[sy, sx]
                 if not block.any():
                     continue
                 self.free_top[0] -= 1
                 t = self.free_stack[self.free_top[0]]
                 self.lo[t] = block
                 self.hits[t] = 0.0
-                occ = block > occupied_lo * 0.5
-                self.hits[t][occ, HIT_X] = 0.5 * self.resolution
-                self.hits[t][occ, HIT_Y] = 0.5 * self.resolution
-                self.hits[t][occ, HIT_N] = 1.0
+                if hit_sums is not None:
+                    self.hits[t][inside] = hit_sums[sy, sx]
+                else:
+                    occ = block > occupied_lo * 0.5
+                    self.hits[t][occ, HIT_X] = 0.5 * self.resolution
+                    self.hits[t][occ, HIT_Y] = 0.5 * self.resolution
+                    self.hits[t][occ, HIT_N] = 1.0
                 self.refs[t] = self.n_maps
                 self.tables[:, ty, tx] = t

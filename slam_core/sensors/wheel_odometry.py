@@ -49,6 +49,8 @@ CLOCK_MODULUS = 1 << 32  # MCU timestamps are unsigned 32-bit microseconds and w
 TICK_SLACK = 3
 #: A gap in MCU time longer than this (s) breaks the odometry chain: re-baseline, don't integrate.
 MAX_TIME_GAP = 5.0
+#: Host-side slack (s) on the time between two frames' arrivals (serial buffering, scheduling).
+HOST_TIME_SLACK = 0.1
 
 
 def wrapped_delta(new: int, old: int, modulus: int = TICK_MODULUS) -> int:
@@ -63,10 +65,14 @@ class OdometryIntegrator:
     Handles 32-bit wrap-around of both tick counters and the microsecond clock. The
     first reading only sets the baseline. A reading is *implausible*, counted in
     ``jumps_rejected`` and not integrated, when a wheel moved more ticks than
-    ``max_wheel_speed`` allows for the elapsed MCU time (plus :data:`TICK_SLACK`); the
+    ``max_wheel_speed`` allows for the elapsed time (plus :data:`TICK_SLACK`); the
     MCU clock stepping back or jumping more than :data:`MAX_TIME_GAP` is counted in
     ``time_gaps``. Either way the reading becomes the new baseline, so odometry never
-    jumps and resumes at once after an MCU reset.
+    jumps and resumes at once after an MCU reset (counters and clock back at 0).
+
+    The elapsed time is the MCU's, but when readings carry their host arrival time it is
+    at most the host's elapsed time plus :data:`HOST_TIME_SLACK`: a frame whose MCU clock
+    leaps ahead (a glitch that passed the CRC) cannot vouch for a long move by itself.
     """
 
     def __init__(self, geometry: DiffDriveGeometry, max_wheel_speed: float, pose=(0.0, 0.0, 0.0)):
@@ -94,9 +100,10 @@ class OdometryIntegrator:
         """Forget the previous reading (keep the pose): the next reading is a new baseline."""
         self._last = None
 
-    def update(self, t_us: int, left: int, right: int) -> bool:
-        """Take one reading; True when it moved the pose (or set the first baseline)."""
-        last, self._last = self._last, (t_us, left, right)
+    def update(self, t_us: int, left: int, right: int, host_time: float | None = None) -> bool:
+        """Take one reading (``host_time``: its arrival, monotonic seconds); True when it moved the
+        pose (or set the first baseline)."""
+        last, self._last = self._last, (t_us, left, right, host_time)
         if last is None:
             self.accepted += 1
             return True
@@ -107,7 +114,10 @@ class OdometryIntegrator:
             return False
         d_left = wrapped_delta(left, last[1])
         d_right = wrapped_delta(right, last[2])
-        limit = self.max_ticks(dt)
+        vouched = dt
+        if host_time is not None and last[3] is not None:
+            vouched = min(dt, max(0.0, host_time - last[3]) + HOST_TIME_SLACK)
+        limit = self.max_ticks(vouched)
         if abs(d_left) > limit or abs(d_right) > limit:
             self.jumps_rejected += 1
             self.time += dt

@@ -1,12 +1,11 @@
-"""Exchange the token for an HttpOnly cookie (the browser's way in)."""
+"""Exchange the token for a browser session cookie (random, expiring, revoked by logout)."""
 
-from fastapi import APIRouter, HTTPException, Request, Response, status
+from fastapi import APIRouter, Request, Response, status
 
-from app.api.deps import Authorized, RuntimeDep
+from app.api.deps import Authorized, LoginLimiterDep, RuntimeDep, SessionsDep
+from app.api.errors import ApiError
 from app.api.models import Login, Ok
-from app.core.security import COOKIE_NAME, token_matches
-
-COOKIE_MAX_AGE_S = 30 * 24 * 3600
+from app.core.security import COOKIE_NAME, COOKIE_SAMESITE, token_matches
 
 router = APIRouter(tags=["login"])
 
@@ -16,17 +15,28 @@ def _cookie_path(request: Request) -> str:
 
 
 @router.post("/login", response_model=Ok)
-def create_login(body: Login, request: Request, response: Response, runtime: RuntimeDep) -> Ok:
-    """Check the token and set the ``homebot_token`` cookie."""
+def create_login(body: Login, request: Request, response: Response, runtime: RuntimeDep,
+                 sessions: SessionsDep, limiter: LoginLimiterDep) -> Ok:
+    """Check the token and set the ``homebot_session`` cookie (429 after repeated wrong tokens)."""
+    client = request.client.host if request.client else "unknown"
+    wait = limiter.retry_after(client)
+    if wait > 0:
+        raise ApiError(status.HTTP_429_TOO_MANY_REQUESTS, "too_many_logins",
+                       f"too many wrong tokens; try again in {wait:.0f} s",
+                       headers={"Retry-After": str(max(1, round(wait)))})
     if not token_matches(body.token, runtime.token):
-        raise HTTPException(status.HTTP_401_UNAUTHORIZED, "wrong token")
-    response.set_cookie(COOKIE_NAME, runtime.token, max_age=COOKIE_MAX_AGE_S, httponly=True,
-                        samesite="strict", secure=request.url.scheme == "https", path=_cookie_path(request))
+        limiter.failed(client)
+        raise ApiError(status.HTTP_401_UNAUTHORIZED, "unauthorized", "wrong token")
+    response.set_cookie(COOKIE_NAME, sessions.create(), max_age=int(sessions.lifetime_s), httponly=True,
+                        samesite=COOKIE_SAMESITE, secure=request.url.scheme == "https",
+                        path=_cookie_path(request))
     return Ok()
 
 
 @router.post("/logout", response_model=Ok, dependencies=[Authorized])
-def delete_login(request: Request, response: Response) -> Ok:
-    """Clear the cookie."""
-    response.delete_cookie(COOKIE_NAME, path=_cookie_path(request))
+def delete_login(request: Request, response: Response, sessions: SessionsDep) -> Ok:
+    """End the browser session: the cookie's token stops working at once."""
+    sessions.revoke(request.cookies.get(COOKIE_NAME))
+    response.delete_cookie(COOKIE_NAME, path=_cookie_path(request), httponly=True, samesite=COOKIE_SAMESITE,
+                           secure=request.url.scheme == "https")
     return Ok()

@@ -5,10 +5,11 @@ import io
 import tempfile
 from pathlib import Path
 
-from fastapi import APIRouter, HTTPException, Response, status
+from fastapi import APIRouter, Response, status
 from PIL import Image
 
 from app.api.deps import RuntimeDep
+from app.api.errors import ApiError
 from slam_core.io.render import map_image
 from slam_core.io.ros_map import save_map
 from slam_core.occupancy_grid import OccupancyGrid
@@ -19,7 +20,7 @@ router = APIRouter(prefix="/map", tags=["map"])
 def _grid(runtime) -> OccupancyGrid:
     grid = runtime.current_grid()
     if grid is None:
-        raise HTTPException(status.HTTP_409_CONFLICT, "there is no map yet")
+        raise ApiError(status.HTTP_409_CONFLICT, "no_map", "there is no map yet")
     return grid
 
 

@@ -1,31 +1,28 @@
 """Named places ("kitchen", "sofa"): create, list, rename, delete, go to."""
 
-from fastapi import APIRouter, HTTPException, Path, Response, status
+from typing import Annotated
 
+from fastapi import APIRouter, Path, Response, status
+
+from app.api import path_names  # noqa: F401  (registers {name:name})
+from app.api.bounds import require_in_map
 from app.api.deps import RuntimeDep, StoreDep
-from app.api.models import GoalResponse, Place, PlaceBody, PlacePatch
+from app.api.errors import ApiError
+from app.api.models import GoalResponse, Place, PlaceBody, PlaceName, PlacePatch
 from app.api.routes.navigation import start_goal
 from app.db import store as db
-from app.db.names import check_name
 from app.navigation.navigator import Goal
 
 router = APIRouter(prefix="/places", tags=["places"])
 
-PlaceName = Path(max_length=64)
-
-
-def _checked(name: str) -> str:
-    try:
-        return check_name(name, "place name")
-    except ValueError as exc:
-        raise HTTPException(status.HTTP_422_UNPROCESSABLE_CONTENT, str(exc)) from None
+PlaceNameParam = Annotated[PlaceName, Path(description="the place's name")]
 
 
 def _get(store: db.Store, name: str) -> db.Place:
     try:
-        return store.get_place(_checked(name))
+        return store.get_place(name)
     except db.NotFound as exc:
-        raise HTTPException(status.HTTP_404_NOT_FOUND, str(exc.args[0])) from None
+        raise ApiError(status.HTTP_404_NOT_FOUND, "not_found", str(exc.args[0])) from None
 
 
 @router.get("", response_model=list[Place])
@@ -35,48 +32,51 @@ def read_places(store: StoreDep) -> list[dict]:
 
 
 @router.post("", response_model=Place, status_code=status.HTTP_201_CREATED)
-def create_place(body: PlaceBody, store: StoreDep) -> dict:
-    """Add a place (409 when the name is taken)."""
+def create_place(body: PlaceBody, store: StoreDep, runtime: RuntimeDep) -> dict:
+    """Add a place near the map (409 when the name is taken)."""
+    require_in_map(runtime, body.x, body.y, "place")
     try:
         return store.add_place(db.Place(body.name, body.x, body.y, body.yaw)).dict()
     except db.AlreadyExists as exc:
-        raise HTTPException(status.HTTP_409_CONFLICT, str(exc)) from None
+        raise ApiError(status.HTTP_409_CONFLICT, "name_taken", str(exc)) from None
 
 
-@router.get("/{name}", response_model=Place)
-def read_place(store: StoreDep, name: str = PlaceName) -> dict:
+@router.get("/{name:name}", response_model=Place)
+def read_place(store: StoreDep, name: PlaceNameParam) -> dict:
     """One place."""
     return _get(store, name).dict()
 
 
-@router.patch("/{name}", response_model=Place)
-def update_place(body: PlacePatch, store: StoreDep, name: str = PlaceName) -> dict:
-    """Rename or move a place."""
+@router.patch("/{name:name}", response_model=Place)
+def update_place(body: PlacePatch, store: StoreDep, runtime: RuntimeDep, name: PlaceNameParam) -> dict:
+    """Rename or move a place (a moved place must lie near the map)."""
     old = _get(store, name)
     new = db.Place(body.name if body.name is not None else old.name,
                    body.x if body.x is not None else old.x,
                    body.y if body.y is not None else old.y,
                    body.yaw if body.yaw is not None else old.yaw)
+    if body.x is not None or body.y is not None:
+        require_in_map(runtime, new.x, new.y, "place")
     try:
         return store.update_place(old.name, new).dict()
     except db.AlreadyExists as exc:
-        raise HTTPException(status.HTTP_409_CONFLICT, str(exc)) from None
+        raise ApiError(status.HTTP_409_CONFLICT, "name_taken", str(exc)) from None
     except db.NotFound as exc:
-        raise HTTPException(status.HTTP_404_NOT_FOUND, str(exc.args[0])) from None
+        raise ApiError(status.HTTP_404_NOT_FOUND, "not_found", str(exc.args[0])) from None
 
 
-@router.delete("/{name}", status_code=status.HTTP_204_NO_CONTENT, response_class=Response)
-def delete_place(store: StoreDep, name: str = PlaceName) -> Response:
+@router.delete("/{name:name}", status_code=status.HTTP_204_NO_CONTENT, response_class=Response)
+def delete_place(store: StoreDep, name: PlaceNameParam) -> Response:
     """Forget a place."""
     try:
-        store.delete_place(_checked(name))
+        store.delete_place(name)
     except db.NotFound as exc:
-        raise HTTPException(status.HTTP_404_NOT_FOUND, str(exc.args[0])) from None
+        raise ApiError(status.HTTP_404_NOT_FOUND, "not_found", str(exc.args[0])) from None
     return Response(status_code=status.HTTP_204_NO_CONTENT)
 
 
-@router.post("/{name}/go", response_model=GoalResponse, status_code=status.HTTP_202_ACCEPTED)
-async def create_place_goal(runtime: RuntimeDep, store: StoreDep, name: str = PlaceName) -> dict:
-    """Drive to the place."""
+@router.post("/{name:name}/go", response_model=GoalResponse, status_code=status.HTTP_202_ACCEPTED)
+async def create_place_goal(runtime: RuntimeDep, store: StoreDep, name: PlaceNameParam) -> dict:
+    """Drive to the place and turn to its heading."""
     place = _get(store, name)
-    return await start_goal(runtime, Goal(place.x, place.y, place.name))
+    return await start_goal(runtime, Goal(place.x, place.y, place.name, yaw=place.yaw))

@@ -9,7 +9,7 @@ from fastapi import APIRouter, WebSocket, WebSocketDisconnect
 from pydantic import ValidationError
 
 from app.api.models import GoalBody, TeleopBody
-from app.core.security import COOKIE_NAME, token_matches
+from app.core.security import COOKIE_NAME, origin_allowed, token_matches
 from app.db.store import NotFound
 from app.navigation.navigator import Goal
 from app.navigation.planning import PlanningError
@@ -20,6 +20,7 @@ log = logging.getLogger(__name__)
 
 PROTOCOL_VERSION = 1
 UNAUTHORIZED_CLOSE = 4401
+FORBIDDEN_ORIGIN_CLOSE = 4403
 MAX_CLIENT_MESSAGE = 4096
 
 router = APIRouter(tags=["stream"])
@@ -50,9 +51,9 @@ async def _handle(runtime: Runtime, client, text: str) -> None:
             body = GoalBody(**message)
             if body.place is not None:
                 place = runtime.store.get_place(body.place)
-                goal = Goal(place.x, place.y, place.name)
+                goal = Goal(place.x, place.y, place.name, yaw=place.yaw, explore=body.explore)
             else:
-                goal = Goal(body.x, body.y)
+                goal = Goal(body.x, body.y, yaw=body.yaw, explore=body.explore)
             await runtime.navigator.set_goal(goal)
         else:
             raise ValueError(f"unknown message type {kind!r}")
@@ -63,11 +64,18 @@ async def _handle(runtime: Runtime, client, text: str) -> None:
 
 @router.websocket("/ws")
 async def stream(websocket: WebSocket) -> None:
-    """Authenticate (``?token=`` or the login cookie), then stream until the client leaves."""
+    """Check the page's Origin, authenticate (``?token=`` or the session cookie), then stream."""
     runtime: Runtime = websocket.app.state.runtime
-    given = websocket.query_params.get("token") or websocket.cookies.get(COOKIE_NAME)
     await websocket.accept()
-    if not token_matches(given, runtime.token):
+    secure = websocket.url.scheme == "wss"
+    if not origin_allowed(websocket.headers.get("origin"), websocket.headers.get("host"), secure,
+                          runtime.settings.cors_origins):
+        await websocket.close(code=FORBIDDEN_ORIGIN_CLOSE, reason="origin not allowed")
+        return
+    given = websocket.query_params.get("token")
+    authorized = (token_matches(given, runtime.token) if given
+                  else websocket.app.state.sessions.valid(websocket.cookies.get(COOKIE_NAME)))
+    if not authorized:
         await websocket.close(code=UNAUTHORIZED_CLOSE, reason="missing or wrong token")
         return
     client = runtime.hub.add(websocket)

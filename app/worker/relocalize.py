@@ -1,0 +1,106 @@
+"""Finding the robot again in a restored map before anything is written into it.
+
+After every start and restart the worker's last pose may be stale: the robot moved while
+no worker ran, its microcontroller restarted (counters back at 0), or it was carried. A
+first scan drawn into the map at a wrong pose doubles the home, so until
+:meth:`Relocalizer.locate` succeeds the worker maps nothing.
+
+``locate(scan, guess)`` tries two correlative searches (Olson, ICRA 2009) on the restored
+map's likelihood field, each refined by the Gauss-Newton scan matcher:
+
+1. local: a window of :data:`LOCAL_LINEAR_M` and :data:`LOCAL_ANGULAR` around the guess
+   (the last pose carried on by the odometry since the start);
+2. global: the whole map, every heading, by branch and bound (Hess et al., ICRA 2016).
+
+A pose is accepted only when at least :data:`ACCEPT_FIT` of the scan's beams then find a
+surface; otherwise the robot stays "not localized" and the next scan tries again. (A home
+with two rooms alike could fool the global search; nothing checks for a runner-up yet.)
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from slam_core.geometry import wrap_angle
+from slam_core.occupancy_grid import OccupancyGrid
+from slam_core.rbpf.config import RBPFConfig
+from slam_core.rbpf.correlative import bounded_search, likelihood_window, max_pool
+from slam_core.rbpf.scan_matcher import P_OCCUPIED, beam_rows, match, pose_likelihood
+from slam_core.rbpf.tiled_map import TiledMaps
+from slam_core.scan import Scan
+
+#: Half-widths of the local search window around the guess (m, rad).
+LOCAL_LINEAR_M = 1.0
+LOCAL_ANGULAR = 0.6
+#: Heading step of the global search (rad); the fine matcher refines it.
+GLOBAL_ANGULAR_STEP = 0.02
+#: Fraction of beams that must find a surface for a pose to be accepted.
+ACCEPT_FIT = 0.8
+#: Side (cells) of the blocks the branch and bound search bounds first.
+BLOCK_CELLS = 8
+
+
+@dataclass(frozen=True)
+class Fix:
+    """Where the robot was found: its pose, the fraction of beams that fit, and by which search."""
+
+    pose: np.ndarray
+    fit: float
+    search: str  # "local" or "global"
+
+
+class Relocalizer:
+    """Scan matching of live scans against one restored map (see the module docstring)."""
+
+    def __init__(self, grid: OccupancyGrid, hit_sums: np.ndarray | None, config: RBPFConfig | None = None):
+        self.config = config or RBPFConfig(resolution=grid.resolution)
+        self.params = self.config.matcher.packed()
+        self.maps = TiledMaps(1, grid.resolution, self.config.sensor)
+        self.maps.seed_from_grid(grid, hit_sums)
+        m, matcher = self.maps, self.config.matcher
+        res = m.resolution
+        # One field over the whole map: the robot is somewhere on it, and so are its scan's echoes.
+        size = np.array(grid.shape[::-1])
+        self.half = int(np.ceil(max(size) / 2)) + matcher.coarse_reach_cells
+        self.centre = np.round((grid.origin - m.origin) / res).astype(int) + size // 2
+        self.field = likelihood_window(m.tables[0], m.lo, m.origin[0], m.origin[1], res, self.centre[0],
+                                       self.centre[1], self.half, self.params[P_OCCUPIED],
+                                       matcher.coarse_sigma, matcher.coarse_reach_cells)
+        self.corner = m.origin + (self.centre - self.half) * res
+        self.pooled = max_pool(self.field, BLOCK_CELLS)
+
+    def locate(self, scan: Scan, guess) -> Fix | None:
+        """The robot's pose in the map from ``scan`` (see the module docstring), or ``None``."""
+        matcher = self.config.matcher
+        points = beam_rows(scan, matcher.coarse_range, matcher.coarse_beams)[:, :2]
+        beams = beam_rows(scan, matcher.max_range, matcher.max_beams)
+        if len(beams) < 10:
+            return None
+        guess = np.asarray(guess, float)
+        res = self.maps.resolution
+        start = self._search(points, guess, int(np.ceil(LOCAL_LINEAR_M / res)), LOCAL_ANGULAR,
+                             matcher.coarse_angular_step)
+        pose, fit = self._refine(start, beams)
+        if fit >= ACCEPT_FIT:
+            return Fix(pose, fit, "local")
+        centre = self.maps.origin + (self.centre + 0.5) * res
+        start = self._search(points, np.array([*centre, 0.0]), self.half, np.pi, GLOBAL_ANGULAR_STEP)
+        pose, fit = self._refine(start, beams)
+        return Fix(pose, fit, "global") if fit >= ACCEPT_FIT else None
+
+    def _search(self, points: np.ndarray, around: np.ndarray, linear_cells: int, angular_half: float,
+                angular_step: float) -> np.ndarray:
+        x, y, th, _ = bounded_search(self.field, self.pooled, BLOCK_CELLS, self.maps.resolution,
+                                     self.corner[0], self.corner[1], around[0], around[1], around[2],
+                                     points, angular_half, angular_step, linear_cells)
+        return np.array([x, y, wrap_angle(th)])
+
+    def _refine(self, start: np.ndarray, beams: np.ndarray) -> tuple[np.ndarray, float]:
+        m, matcher = self.maps, self.config.matcher
+        fine = (m.tables[0], m.lo, m.hits, m.origin[0], m.origin[1], m.resolution)
+        x, y, th, _, _ = match(*fine, start[0], start[1], start[2], beams, self.params, matcher.iterations,
+                               matcher.wide_iterations)
+        _, matched = pose_likelihood(*fine, x, y, th, beams, self.params)
+        return np.array([x, y, wrap_angle(th)]), matched / len(beams)

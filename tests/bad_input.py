@@ -1,0 +1,109 @@
+"""The bad-input corpus: requests, hostile names, broken map files and broken logs, each with the
+answer homebot must give. ``tests/test_api_edge.py`` runs it against a live server and
+``tests/test_cli_bad_input.py`` against the CLI."""
+
+from __future__ import annotations
+
+import bz2
+import gzip
+from pathlib import Path
+
+GOOD_YAML = "image: {image}\nresolution: 0.05\norigin: [0.0, 0.0, 0.0]\nnegate: 0\n" \
+            "occupied_thresh: 0.65\nfree_thresh: 0.196\nmode: trinary\n"
+GOOD_PGM = b"P5\n4 3\n255\n" + bytes([254] * 12)
+
+#: (method, path, JSON body or None, status, reason)
+BAD_REQUESTS = [
+    ("POST", "/api/pose", {"x": 500.0, "y": 0.0}, 422, "outside_map"),
+    ("POST", "/api/pose", {"x": True, "y": 1.0}, 422, "invalid_request"),
+    ("POST", "/api/pose", {"x": "1", "y": 1.0}, 422, "invalid_request"),
+    ("POST", "/api/pose", {"x": 1e300, "y": 0.0}, 422, "invalid_request"),
+    ("POST", "/api/pose", {"x": 1.0, "y": 1.0, "yaw": 1e9}, 422, "invalid_request"),
+    ("POST", "/api/places", {"name": "far", "x": 1e300, "y": 0.0}, 422, "invalid_request"),
+    ("POST", "/api/places", {"name": "far", "x": 200.0, "y": 100.0}, 422, "outside_map"),
+    ("POST", "/api/places", {"name": "a/b", "x": 1.0, "y": 1.0}, 422, "invalid_request"),
+    ("POST", "/api/places", {"name": "x.png", "x": 1.0, "y": 1.0}, 422, "invalid_request"),
+    ("POST", "/api/places", {"name": "v1.2", "x": 1.0, "y": 1.0}, 422, "invalid_request"),
+    ("POST", "/api/places", {"name": "nul\u0000", "x": 1.0, "y": 1.0}, 422, "invalid_request"),
+    ("POST", "/api/places", {"name": "ok", "x": 1.0, "y": 1.0, "extra": 1}, 422, "invalid_request"),
+    ("POST", "/api/places", [1, 2], 422, "invalid_request"),
+    ("PATCH", "/api/places/nowhere", {"x": 1.0}, 404, "not_found"),
+    ("GET", "/api/places/..%5C..%5Ctoken", None, 404, "not_found"),
+    ("GET", "/api/places/a%5Cb", None, 422, "invalid_request"),
+    ("DELETE", "/api/maps/..%2F..%2Ftoken", None, 404, "not_found"),
+    ("POST", "/api/goal", {"x": 1.0}, 422, "invalid_request"),
+    ("POST", "/api/goal", {"x": "NaN", "y": 1.0}, 422, "invalid_request"),
+    ("POST", "/api/goal", {"x": 1e300, "y": 0.0}, 422, "invalid_request"),
+    ("POST", "/api/goal", {"x": 300.0, "y": 300.0}, 422, "goal_outside_map"),
+    ("POST", "/api/goal", {"x": 1.0, "y": 2.0, "yaw": "north"}, 422, "invalid_request"),
+    ("POST", "/api/goal", {"x": 1.0, "y": 2.0, "place": "kitchen"}, 422, "invalid_request"),
+    ("POST", "/api/goal", {"place": "nowhere"}, 404, "not_found"),
+    ("POST", "/api/goal", {"place": "nowhere", "yaw": 1.0}, 422, "invalid_request"),
+    ("POST", "/api/places/nowhere/go", None, 404, "not_found"),
+    ("POST", "/api/teleop", {"v": 9.0, "w": 0.0}, 422, "invalid_request"),
+    ("POST", "/api/teleop", {"v": True, "w": 0.0}, 422, "invalid_request"),
+    ("PUT", "/api/mode", {"mode": "flying"}, 422, "invalid_request"),
+    ("PUT", "/api/mode", {"mode": "localization", "map": "nope"}, 404, "not_found"),
+    ("PUT", "/api/mode", {"mode": "localization", "map": "../x"}, 422, "invalid_request"),
+    ("POST", "/api/maps", {"name": ".hidden"}, 422, "invalid_request"),
+    ("POST", "/api/maps", {"name": "x" * 65}, 422, "invalid_request"),
+    ("POST", "/api/login", {"token": 5}, 422, "invalid_request"),
+]
+
+#: case -> (YAML text, image bytes, words the error must contain)
+BAD_MAPS = {
+    "inf_resolution": (GOOD_YAML.replace("0.05", ".inf"), GOOD_PGM, "resolution must be finite"),
+    "nan_origin": (GOOD_YAML.replace("[0.0, 0.0, 0.0]", "[.nan, 0.0, 0.0]"), GOOD_PGM,
+                   "origin must be finite"),
+    "huge_origin": (GOOD_YAML.replace("[0.0, 0.0, 0.0]", "[1.0e+308, 0.0, 0.0]"), GOOD_PGM,
+                    "origin farther"),
+    "nan_threshold": (GOOD_YAML.replace("0.65", ".nan"), GOOD_PGM, "occupied_thresh must be finite"),
+    "swapped_thresholds": (GOOD_YAML.replace("0.65", "0.1"), GOOD_PGM, "free_thresh < occupied_thresh"),
+    "bomb": (GOOD_YAML, b"P5\n200000 200000\n255\n" + bytes(64), "too large"),
+    "oversized": (GOOD_YAML, b"P5\n5000 5000\n255\n" + bytes(64), "too large"),
+    "truncated_image": (GOOD_YAML, b"P5\n100 100\n255\n" + bytes(10), "cannot read map image"),
+    "not_an_image": (GOOD_YAML, b"hello, I am not a picture", "cannot read map image"),
+    "binary_yaml": ("\x00\x01\x02\xff", GOOD_PGM, "cannot read map YAML"),
+    "list_yaml": ("- a\n- b\n", GOOD_PGM, "must be a mapping"),
+    "string_resolution": (GOOD_YAML.replace("0.05", "'0.05'"), GOOD_PGM, "must be numbers"),
+}
+
+
+def write_bad_map(directory: Path, name: str, case: str) -> str:
+    """Write ``NAME.yaml`` and ``NAME.pgm`` of a broken map; returns what its error must say."""
+    text, image, problem = BAD_MAPS[case]
+    directory.mkdir(parents=True, exist_ok=True)
+    (directory / f"{name}.yaml").write_bytes(text.format(image=f"{name}.pgm").encode("latin-1"))
+    (directory / f"{name}.pgm").write_bytes(image)
+    return problem
+
+
+GOOD_LOG_LINES = (
+    "ODOM 0.0 0.0 0.0 0 0 0 0.0 robot 0.0\n"
+    "FLASER 3 1.0 1.0 1.0 0.0 0.0 0.0 0.0 0.0 0.0 0.1 robot 0.1\n"
+)
+
+#: case -> (file name, file bytes (None: a directory), words the error must contain)
+BAD_LOGS = {
+    "binary": ("binary.clf", bytes(range(256)) * 8, "binary.clf:1"),
+    "empty": ("empty.clf", b"", "empty.clf"),
+    "truncated_gz": ("cut.clf.gz", gzip.compress(GOOD_LOG_LINES.encode() * 50)[:40], "cut.clf.gz"),
+    "truncated_bz2": ("cut.clf.bz2", bz2.compress(GOOD_LOG_LINES.encode() * 50)[:40], "cut.clf.bz2"),
+    "garbage_line": ("garbage.clf", b"FLASER -5 1 2\n", "garbage.clf:1"),
+    "nan_pose": ("nan.clf", GOOD_LOG_LINES.replace("0.0 0.0 0.0 0.0 0.0 0.0", "nan 0.0 0.0 nan 0.0 0.0")
+                 .encode(), "nan.clf:2"),
+    "huge_pose": ("huge.clf", GOOD_LOG_LINES.replace("0.0 0.0 0.0 0.0 0.0 0.0", "1e300 0.0 0.0 1e300 0.0 0.0")
+                  .encode(), "huge.clf:2"),
+    "directory": ("a_directory", None, "a_directory"),
+}
+
+
+def write_bad_log(directory: Path, case: str) -> tuple[Path, str]:
+    """Write one broken log; returns its path and what its error must say."""
+    name, data, expected = BAD_LOGS[case]
+    path = directory / name
+    if data is None:
+        path.mkdir()
+    else:
+        path.write_bytes(data)
+    return path, expected

@@ -1,0 +1,132 @@
+"""Durable worker state: lossless, atomic snapshots; bad ones set aside; the map's growth limit."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from app.worker.checkpoint import (
+    GENERATIONS_KEPT,
+    generations,
+    load_checkpoint,
+    quarantine_newest,
+    save_pose,
+    save_snapshot,
+    snapshot_path,
+    write_atomically,
+)
+from app.worker.estimators import Checkpoint, map_with_hits
+from app.worker.map_limits import check_room, map_box
+from app.worker.shared_map import MapTooLarge
+from slam_core.rbpf.config import RBPFConfig
+from slam_core.rbpf.filter import RBPFSlam
+from tests.synthetic_room import room_scan
+
+CAPACITY = 2048 * 2048
+
+
+@pytest.fixture(scope="module")
+def mapped_room() -> RBPFSlam:
+    """A filter that has mapped the synthetic room along a short drive."""
+    slam = RBPFSlam(RBPFConfig(particles=4, linear_update=0.1, angular_update=0.1), seed=1)
+    for i in range(12):
+        pose = np.array([0.1 * i, 0.05 * i, 0.03 * i])
+        slam.step(pose, room_scan(pose))
+    return slam
+
+
+def checkpoint_of(slam: RBPFSlam, pose=(1.0, 0.5, 0.2)) -> Checkpoint:
+    grid, hits = map_with_hits(slam)
+    return Checkpoint("mapping", np.array(pose), grid, True, None, (120, -7), hits)
+
+
+def test_a_snapshot_restores_the_map_and_its_hit_statistics_exactly(tmp_path, mapped_room):
+    saved = checkpoint_of(mapped_room)
+    assert saved.hit_sums[..., 2].sum() > 100  # the map really holds beam endpoints
+    save_snapshot(tmp_path, saved)
+    loaded = load_checkpoint(tmp_path, CAPACITY).checkpoint
+    assert np.array_equal(loaded.grid.data, saved.grid.data)
+    assert np.array_equal(loaded.grid.origin, saved.grid.origin)
+    assert np.array_equal(loaded.hit_sums, saved.hit_sums)
+    assert np.array_equal(loaded.pose, saved.pose) and loaded.ticks == (120, -7)
+    # ... and a filter resumed from it holds the very same map, endpoints included.
+    resumed = RBPFSlam(RBPFConfig(particles=4), seed=2, initial_pose=loaded.pose)
+    resumed.maps.seed_from_grid(loaded.grid, loaded.hit_sums)
+    grid, hits = map_with_hits(resumed)
+    assert np.array_equal(grid.data, saved.grid.data) and np.array_equal(hits, saved.hit_sums)
+
+
+def test_the_pose_file_updates_the_pose_of_its_own_generation_only(tmp_path, mapped_room):
+    generation = save_snapshot(tmp_path, checkpoint_of(mapped_room, pose=(1.0, 0.5, 0.2)))
+    save_pose(tmp_path, checkpoint_of(mapped_room, pose=(1.5, 0.7, 0.4)), generation)
+    assert np.allclose(load_checkpoint(tmp_path, CAPACITY).checkpoint.pose, (1.5, 0.7, 0.4))
+    save_pose(tmp_path, checkpoint_of(mapped_room, pose=(9.0, 9.0, 0.0)), generation + 5)
+    assert np.allclose(load_checkpoint(tmp_path, CAPACITY).checkpoint.pose, (1.0, 0.5, 0.2))
+
+
+def test_an_interrupted_write_leaves_the_previous_file_whole(tmp_path):
+    target = tmp_path / "state.bin"
+    target.write_bytes(b"old and whole")
+
+    def crash_halfway(f):
+        f.write(b"new but")
+        raise OSError("power cut")
+
+    with pytest.raises(OSError, match="power cut"):
+        write_atomically(target, crash_halfway)
+    assert target.read_bytes() == b"old and whole"
+
+
+def test_only_the_newest_generations_are_kept(tmp_path, mapped_room):
+    for _ in range(GENERATIONS_KEPT + 2):
+        last = save_snapshot(tmp_path, checkpoint_of(mapped_room))
+    assert generations(tmp_path) == list(range(last - GENERATIONS_KEPT + 1, last + 1))
+
+
+def test_a_corrupt_snapshot_is_set_aside_and_the_previous_one_used(tmp_path, mapped_room):
+    save_snapshot(tmp_path, checkpoint_of(mapped_room, pose=(1.0, 0.5, 0.2)))
+    newest = save_snapshot(tmp_path, checkpoint_of(mapped_room, pose=(2.0, 0.5, 0.2)))
+    path = snapshot_path(tmp_path, newest)
+    path.write_bytes(path.read_bytes()[:200])  # torn off
+    restored = load_checkpoint(tmp_path, CAPACITY)
+    assert np.allclose(restored.checkpoint.pose, (1.0, 0.5, 0.2)) and restored.generation == newest - 1
+    [(aside, reason)] = restored.quarantined
+    assert aside.exists() and ".bad-" in aside.name and "unreadable" in reason
+    assert generations(tmp_path) == [newest - 1]  # never loaded again
+
+
+def test_a_snapshot_with_an_absurd_map_or_pose_is_refused(tmp_path, mapped_room):
+    good = save_snapshot(tmp_path, checkpoint_of(mapped_room))
+    too_big = checkpoint_of(mapped_room)
+    save_snapshot(tmp_path, too_big)
+    restored = load_checkpoint(tmp_path, max_cells=too_big.grid.data.size - 1)
+    assert restored.checkpoint is None or restored.generation == good
+    assert "exceeds the limit" in restored.quarantined[0][1]
+    state_only = tmp_path / "nan"
+    generation = save_snapshot(state_only, Checkpoint("mapping", np.zeros(3)))
+    data = dict(np.load(snapshot_path(state_only, generation)))
+    state = json.loads(str(data["state"]))
+    state["pose"] = [float("nan"), 0.0, 0.0]
+    np.savez(snapshot_path(state_only, generation), state=np.array(json.dumps(state)))
+    restored = load_checkpoint(state_only, CAPACITY)
+    assert restored.checkpoint is None and "finite" in restored.quarantined[0][1]
+
+
+def test_quarantine_newest_falls_back_a_generation(tmp_path, mapped_room):
+    first = save_snapshot(tmp_path, checkpoint_of(mapped_room))
+    second = save_snapshot(tmp_path, checkpoint_of(mapped_room))
+    aside = quarantine_newest(tmp_path)
+    assert aside.name.startswith(f"map-{second:06d}.bad-")
+    assert load_checkpoint(tmp_path, CAPACITY).generation == first
+
+
+@pytest.mark.parametrize("x", [500.0, -5.8e16, float("inf")])
+def test_a_pose_that_would_grow_the_map_past_its_limit_is_refused_before_any_allocation(mapped_room, x):
+    box = map_box(mapped_room)
+    tables_before = mapped_room.maps.tables.shape
+    with pytest.raises(MapTooLarge, match=r"limit|finite"):
+        check_room(box, (x, 0.0, 0.0), 8.0, 0.05, CAPACITY)
+    assert mapped_room.maps.tables.shape == tables_before
+    check_room(box, (2.0, 1.0, 0.0), 8.0, 0.05, CAPACITY)  # in the home: fine

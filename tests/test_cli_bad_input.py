@@ -1,0 +1,85 @@
+"""Every subcommand turns a bad input file into one line on stderr that names the file (and the
+line, where there is one) and exits 2; no traceback unless ``--debug`` (the corpus is in
+``tests/bad_input.py``)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import pytest
+
+from app.cli import main
+from tests.bad_input import BAD_LOGS, BAD_MAPS, GOOD_PGM, GOOD_YAML, write_bad_log, write_bad_map
+from tests.live_server import ROOT
+
+LOG_COMMANDS = ("map", "slam", "ekf", "localize")
+
+
+def one_line_error(capsys, argv) -> str:
+    code = main(argv)
+    err = capsys.readouterr().err.strip()
+    assert code == 2, (argv, code, err)
+    assert len(err.splitlines()) == 1 and "Traceback" not in err, err
+    assert err.startswith(f"homebot {argv[0]}: error: "), err
+    return err
+
+
+@pytest.fixture
+def good_map(tmp_path):
+    (tmp_path / "good.pgm").write_bytes(GOOD_PGM)
+    (tmp_path / "good.yaml").write_text(GOOD_YAML.format(image="good.pgm"))
+    return tmp_path / "good.yaml"
+
+
+@pytest.mark.parametrize("command", LOG_COMMANDS)
+@pytest.mark.parametrize("case", sorted(BAD_LOGS))
+def test_a_bad_log_is_one_line_naming_the_file(capsys, tmp_path, good_map, command, case):
+    log, expected = write_bad_log(tmp_path, case)
+    extra = ["--map", str(good_map)] if command == "localize" else []
+    err = one_line_error(capsys, [command, str(log), "--out", str(tmp_path / "out"), *extra])
+    assert expected in err, err
+
+
+@pytest.mark.parametrize("case", sorted(BAD_MAPS))
+def test_localize_refuses_a_bad_map_by_name(capsys, tmp_path, case):
+    problem = write_bad_map(tmp_path, case, case)
+    log, _ = write_bad_log(tmp_path, "empty")
+    err = one_line_error(capsys, ["localize", str(log), "--map", str(tmp_path / f"{case}.yaml"),
+                                  "--out", str(tmp_path / "out")])
+    assert problem in err and case in err, err
+
+
+@pytest.mark.parametrize("case", ["binary", "empty", "directory", "nan_pose"])
+def test_eval_refuses_bad_trajectories_and_relations(capsys, tmp_path, case):
+    bad, _ = write_bad_log(tmp_path, case)
+    good = tmp_path / "good.txt"
+    good.write_text("0.0 0 0 0\n1.0 1 0 0\n")
+    relations = tmp_path / "good.relations"
+    relations.write_text("0.0 1.0 1 0 0 0 0 0\n")
+    assert bad.name in one_line_error(capsys, ["eval", str(bad), str(relations)])
+    assert bad.name in one_line_error(capsys, ["eval", str(good), str(bad)])
+
+
+@pytest.mark.parametrize("case", ["binary", "empty", "directory"])
+def test_sim_record_refuses_a_bad_world_file(capsys, tmp_path, case):
+    world, _ = write_bad_log(tmp_path, case)
+    assert world.name in one_line_error(capsys, ["sim", "record", str(world), "--out", str(tmp_path / "o")])
+
+
+@pytest.mark.parametrize("case", ["binary", "directory"])
+def test_link_refuses_what_is_not_a_serial_device(capsys, tmp_path, case):
+    port, _ = write_bad_log(tmp_path, case)
+    assert f"{port}: not a serial device" in one_line_error(capsys, ["link", str(port), "--seconds", "0.1"])
+
+
+def test_the_process_prints_no_traceback_unless_debug(tmp_path):
+    log, _ = write_bad_log(tmp_path, "directory")
+
+    def run(*flags):
+        command = [sys.executable, "-m", "app.cli", *flags, "slam", str(log), "--out", str(tmp_path)]
+        return subprocess.run(command, cwd=ROOT, capture_output=True, text=True, timeout=120)
+
+    quiet, loud = run(), run("--debug")
+    assert quiet.returncode == 2 and quiet.stderr.strip() == f"homebot slam: error: {log}: Is a directory"
+    assert loud.returncode != 0 and "Traceback" in loud.stderr and "IsADirectoryError" in loud.stderr

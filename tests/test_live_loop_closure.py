@@ -1,0 +1,168 @@
+"""A loop closed live: a simulated tour whose odometry drifts, replayed through a real server.
+
+The filter is configured to trust the odometry alone (one particle, no scan may correct it,
+no motion noise), so the map it draws drifts as the odometry does; the live back end must
+close the loops. Oracles: the simulator's ground-truth map and poses.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import json
+import os
+import subprocess
+import sys
+import time
+from dataclasses import dataclass, replace
+
+import numpy as np
+import pytest
+import websockets
+from scipy.ndimage import binary_dilation
+
+from app.streaming.map_frames import MapCanvas, decode
+from app.worker.shared_map import UNKNOWN
+from slam_core.io.ros_map import load_map
+from slam_core.io.trajectory import Trajectory
+from slam_core.motion_model import OdometryMotionModel
+from slam_core.rbpf import RBPFConfig
+from slam_core.sim.record import record_tour
+from slam_core.sim.robot import WheelNoise
+from slam_core.sim.simulator import SimConfig
+from slam_core.sim.world import load_world
+from tests.live_server import ROOT, START_TIMEOUT_S, free_port
+
+TOKEN = "loop-closure-test-token-0123456789abcdef"
+#: The map is looked at again this long after a closure (the map pump runs at >= 1 Hz).
+SETTLE_S = 1.5
+OCCUPIED = 65
+
+
+def odometry_only(config: RBPFConfig) -> RBPFConfig:
+    """A filter that maps with the odometry's poses: its scans never correct them."""
+    blind = replace(config.matcher, min_matched=1.01, good_match=1.01, coarse_linear_cells=0,
+                    lead_rotations=0, motion_floor_xy=1e-4, motion_floor_th=1e-4)
+    return replace(config, particles=1, matcher=blind, motion=OdometryMotionModel(1e-6, 1e-6, 1e-6, 1e-6))
+
+
+@dataclass
+class Snapshot:
+    cells: np.ndarray
+    origin: tuple[float, float]
+    resolution: float
+
+
+@dataclass
+class Closure:
+    event: dict
+    before: Snapshot
+    after: Snapshot | None = None
+    pose_before: dict | None = None
+    pose_after: dict | None = None
+
+
+def snapshot(canvas: MapCanvas) -> Snapshot:
+    return Snapshot(canvas.cells.copy(), canvas.frame.origin, canvas.frame.resolution)
+
+
+async def _watch(port: int) -> list[Closure]:
+    deadline = time.monotonic() + START_TIMEOUT_S
+    while True:
+        try:
+            ws = await websockets.connect(f"ws://127.0.0.1:{port}/ws?token={TOKEN}", max_size=None)
+            break
+        except OSError:
+            if time.monotonic() > deadline:
+                raise
+            await asyncio.sleep(0.2)
+    canvas, closures, last_pose, due = MapCanvas(), [], None, []
+    async with ws:
+        with contextlib.suppress(websockets.ConnectionClosed):
+            async for raw in ws:
+                if isinstance(raw, bytes):
+                    canvas.apply(decode(raw))
+                    while due and time.monotonic() >= due[0][0]:
+                        due.pop(0)[1].after = snapshot(canvas)
+                    continue
+                message = json.loads(raw)
+                if message["type"] == "pose":
+                    for c in closures:
+                        if c.pose_after is None and message["seq"] > c.event["seq"]:
+                            c.pose_before, c.pose_after = last_pose, message
+                    last_pose = message
+                elif message["type"] == "loop_closure" and canvas.cells is not None:
+                    closures.append(Closure(message, snapshot(canvas)))
+                    due.append((time.monotonic() + SETTLE_S, closures[-1]))
+    return closures
+
+
+def agreement(snap: Snapshot, truth, walls: np.ndarray) -> float:
+    """The share of the map's occupied cells on a true wall (within two cells), after the rigid
+    shift and turn that fit best: the map's own consistency, whatever its frame."""
+    iy, ix = np.nonzero((snap.cells != UNKNOWN) & (snap.cells >= OCCUPIED))
+    xy = np.array(snap.origin) + (np.stack([ix, iy], 1) + 0.5) * snap.resolution
+    centre = xy.mean(axis=0)
+    best = 0.0
+    for th in np.arange(-0.15, 0.1501, 0.01):
+        c, s = np.cos(th), np.sin(th)
+        turned = (xy - centre) @ np.array([[c, s], [-s, c]]) + centre
+        for dx in np.arange(-0.3, 0.301, 0.05):
+            for dy in np.arange(-0.3, 0.301, 0.05):
+                cells = truth.world_to_cell(turned + np.array([dx, dy]))
+                inside = np.all((cells >= 0) & (cells < walls.shape[::-1]), axis=1)
+                best = max(best, walls[cells[inside, 1], cells[inside, 0]].sum() / len(xy))
+    return best
+
+
+@pytest.fixture(scope="module")
+def drifting(tmp_path_factory):
+    root = tmp_path_factory.mktemp("loop")
+    noise = WheelNoise(scale_std=0.003, slip_std=0.01, slip_tau=0.3)
+    rec = record_tour(load_world("flat"), root / "rec", seed=1, config=SimConfig(noise=noise))
+    config_file = root / "odometry-only.json"
+    config_file.write_text(json.dumps(odometry_only(RBPFConfig()).to_dict()))
+    port = free_port()
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "HOMEBOT_TOKEN": TOKEN}
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "app.cli", "serve", "--port", str(port), "--data", str(root / "data"),
+         "--replay", str(rec.log), "--speed", "max", "--exit-at-end", "--config", str(config_file)],
+        cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        closures = asyncio.run(_watch(port))
+        output, _ = proc.communicate(timeout=600)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 0, output
+    return rec, closures
+
+
+def test_loops_close_live_and_the_published_map_agrees_better_with_the_truth(drifting):
+    rec, closures = drifting
+    assert closures, "no loop closed while the log played"
+    counts = [c.event["closures"] for c in closures]  # the stream keeps the newest of each kind
+    assert counts == sorted(set(counts)) and counts[0] >= 1
+    # the closure that moved the robot most: the tour's return after the drift grew
+    biggest = max((c for c in closures if c.after is not None), key=lambda c: np.hypot(*c.event["jump"][:2]))
+    assert np.hypot(*biggest.event["jump"][:2]) > 0.1
+    truth = load_map(rec.map_yaml)
+    walls = binary_dilation(truth.data > 0, iterations=2)
+    before, after = agreement(biggest.before, truth, walls), agreement(biggest.after, truth, walls)
+    assert after > before + 0.03, (before, after)
+
+
+def test_the_published_pose_jumps_by_the_correction_only(drifting):
+    rec, closures = drifting
+    true_poses = Trajectory.load(rec.ground_truth).poses
+    checked = 0
+    for c in closures:
+        if c.pose_before is None:
+            continue
+        b, a = c.pose_before, c.pose_after
+        jumped = np.hypot(a["x"] - b["x"], a["y"] - b["y"])
+        moved = np.hypot(*(true_poses[a["seq"] - 1, :2] - true_poses[b["seq"] - 1, :2]))
+        assert jumped <= np.hypot(*c.event["jump"][:2]) + moved + 0.03, (c.event, b, a)
+        checked += 1
+    assert checked >= 1

@@ -1,0 +1,76 @@
+"""Re-localization in a restored map, against the simulator's ground truth."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+
+from app.worker.relocalize import Relocalizer
+from slam_core.geometry import wrap_angle
+from slam_core.rbpf.tiled_map import TiledMaps
+from slam_core.sim.lidar import Lidar
+from slam_core.sim.world import load_world
+from tests.synthetic_room import room_scan
+
+POSE_TOLERANCE_M = 0.05
+HEADING_TOLERANCE = 0.03
+
+
+def tour_poses(world, step: float = 0.1) -> np.ndarray:
+    """Poses every ``step`` metres along the world's tour, heading along it."""
+    points = np.vstack([world.start[:2], world.tour])
+    poses = []
+    for a, b in itertools.pairwise(points):
+        heading = np.arctan2(*(b - a)[::-1])
+        for t in np.arange(0.0, 1.0, step / max(np.hypot(*(b - a)), step)):
+            poses.append([*(a + t * (b - a)), heading])
+    return np.array(poses)
+
+
+@pytest.fixture(scope="module")
+def flat():
+    """The flat mapped from its tour's true poses, with a lidar to take test scans."""
+    world = load_world("flat")
+    lidar = Lidar(world)
+    rng = np.random.default_rng(0)
+    maps = TiledMaps(1, 0.05)
+    poses = tour_poses(world)
+    for pose in poses:
+        maps.integrate(pose[None, :], lidar.scan(pose, rng))
+    return Relocalizer(maps.to_grid(0), maps.hit_sums(0)), lidar, poses
+
+
+def error(fix_pose, truth) -> tuple[float, float]:
+    return float(np.hypot(*(fix_pose[:2] - truth[:2]))), abs(float(wrap_angle(fix_pose[2] - truth[2])))
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_a_nearby_guess_is_corrected_by_the_local_search(flat, seed):
+    relocalizer, lidar, poses = flat
+    rng = np.random.default_rng(seed)
+    truth = poses[rng.integers(len(poses))] + [0.0, 0.0, rng.uniform(-np.pi, np.pi)]
+    guess = truth + rng.uniform([-0.5, -0.5, -0.4], [0.5, 0.5, 0.4])
+    fix = relocalizer.locate(lidar.scan(truth, rng), guess)
+    assert fix is not None and fix.search == "local"
+    d, dth = error(fix.pose, truth)
+    assert d <= POSE_TOLERANCE_M and dth <= HEADING_TOLERANCE, (fix, truth)
+
+
+@pytest.mark.parametrize("seed", [4, 5, 6])
+def test_a_wrong_guess_is_replaced_by_the_global_search(flat, seed):
+    """As after an MCU power cycle: the odometry says the robot is back at the start."""
+    relocalizer, lidar, poses = flat
+    rng = np.random.default_rng(seed)
+    truth = poses[rng.integers(len(poses))] + [0.0, 0.0, rng.uniform(-np.pi, np.pi)]
+    far = poses[np.argmax(np.hypot(*(poses[:, :2] - truth[:2]).T))]
+    fix = relocalizer.locate(lidar.scan(truth, rng), far)
+    assert fix is not None and fix.search == "global"
+    d, dth = error(fix.pose, truth)
+    assert d <= POSE_TOLERANCE_M and dth <= HEADING_TOLERANCE, (fix, truth)
+
+
+def test_a_scan_of_another_place_is_not_accepted(flat):
+    relocalizer, _, poses = flat
+    assert relocalizer.locate(room_scan((0.0, 0.0, 0.0)), poses[0]) is None

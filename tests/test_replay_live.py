@@ -1,0 +1,147 @@
+"""``homebot serve --replay``: a slice of mit-csail through a real server, watched by a real websocket client.
+
+The oracle is ``homebot slam``'s pipeline on the same slice with the same config and seed,
+and the log's ground-truth relations.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import json
+import os
+import subprocess
+import sys
+import time
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import httpx
+import numpy as np
+import pytest
+import websockets
+import yaml
+
+from slam_core.datasets import BUNDLED
+from slam_core.evaluation import load_relations, relation_error
+from slam_core.io.carmen import laser_records
+from slam_core.io.trajectory import Trajectory
+from slam_core.pipelines.log_slam import slam_from_log
+from slam_core.rbpf import RBPFConfig
+from tests.bundled import log_slice
+from tests.live_server import ROOT, START_TIMEOUT_S, free_port
+
+SCANS = 250
+TOKEN = "replay-test-token-0123456789abcdefghij"
+RUN_TIMEOUT_S = 600.0
+
+
+@dataclass
+class Replay:
+    log: Path
+    config: RBPFConfig
+    out: Path
+    exit_code: int
+    output: str
+    messages: list[dict]
+    refused: dict[str, httpx.Response]
+
+
+async def _watch(port: int) -> tuple[list[dict], dict[str, httpx.Response]]:
+    """Every text message of the stream until the server closes it; goal and teleop tried once
+    while the log plays."""
+    deadline = time.monotonic() + START_TIMEOUT_S
+    while True:
+        try:
+            ws = await websockets.connect(f"ws://127.0.0.1:{port}/ws?token={TOKEN}", max_size=None)
+            break
+        except OSError:
+            if time.monotonic() > deadline:
+                raise
+            await asyncio.sleep(0.2)
+    messages, refused = [], {}
+    headers = {"Authorization": f"Bearer {TOKEN}"}
+    async with ws, httpx.AsyncClient(base_url=f"http://127.0.0.1:{port}", headers=headers) as http:
+        with contextlib.suppress(websockets.ConnectionClosed):
+            async for raw in ws:
+                if isinstance(raw, bytes):
+                    continue
+                message = json.loads(raw)
+                messages.append(message)
+                if message["type"] == "pose" and not refused:
+                    refused["goal"] = await http.post("/api/goal", json={"x": 1.0, "y": 0.0})
+                    refused["teleop"] = await http.post("/api/teleop", json={"v": 0.1, "w": 0.0})
+    return messages, refused
+
+
+@pytest.fixture(scope="module")
+def replay(tmp_path_factory) -> Replay:
+    root = tmp_path_factory.mktemp("replay")
+    log = log_slice("mit-csail", root / "mit-slice.clf", SCANS)
+    config = replace(RBPFConfig(), particles=8)
+    config_file = root / "slam.json"
+    config_file.write_text(json.dumps(config.to_dict()))
+    port = free_port()
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "HOMEBOT_TOKEN": TOKEN}
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "app.cli", "serve", "--port", str(port), "--data", str(root / "data"),
+         "--replay", str(log), "--speed", "max", "--exit-at-end", "--config", str(config_file)],
+        cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        messages, refused = asyncio.run(_watch(port))
+        output, _ = proc.communicate(timeout=RUN_TIMEOUT_S)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    return Replay(log, config, root / "data" / "replay" / "mit-slice", proc.returncode, output, messages,
+                  refused)
+
+
+def test_the_server_exits_cleanly_after_the_final_optimisation(replay):
+    assert replay.exit_code == 0, replay.output
+    for name in ("map.pgm", "map.png", "trajectory.txt", "particle_trajectory.txt"):
+        assert (replay.out / name).stat().st_size > 0, name
+    assert yaml.safe_load((replay.out / "map.yaml").read_text())["image"] == "map.pgm"
+    assert RBPFConfig.from_dict(json.loads((replay.out / "config.json").read_text())) == replay.config
+    stats = json.loads((replay.out / "stats.json").read_text())
+    assert stats["records"] == stats["stepped"] == SCANS and stats["dropped"] == 0  # max speed drops none
+    assert stats["speed"] == "max" and "loop_edges" in stats
+
+
+def test_the_written_trajectory_scores_like_homebot_slam(replay):
+    live = Trajectory.load(replay.out / "trajectory.txt")
+    assert live.stamps == [r.stamp.ipc_text for r in laser_records(replay.log)]
+    relations = load_relations(BUNDLED["mit-csail"][1])
+    live_error = relation_error(live.times, live.poses, relations)
+    offline = slam_from_log(replay.log, replay.config, seed=0).trajectory
+    offline_error = relation_error(offline.times, offline.poses, relations)
+    assert live_error.count == offline_error.count > 100
+    # the issue's bound: within 10 % of `homebot slam` on the same log, config and seed
+    assert live_error.trans.mean() <= 1.1 * offline_error.trans.mean() + 1e-3, live_error.report()
+    assert live_error.trans.mean() < 0.05, live_error.report()
+
+
+def test_the_stream_carries_the_replayed_poses_and_the_status_says_replay(replay):
+    poses = [m for m in replay.messages if m["type"] == "pose"]
+    assert len(poses) >= 20
+    final = Trajectory.load(replay.out / "trajectory.txt").poses
+    # the worker's step ``seq`` is the record's number at max speed; the filter's live pose is
+    # the optimised one up to the back end's correction (centimetres here: no loop in this slice)
+    stepped = [m for m in poses if 1 <= m["seq"] <= SCANS]
+    gaps = [np.hypot(m["x"] - final[m["seq"] - 1, 0], m["y"] - final[m["seq"] - 1, 1]) for m in stepped]
+    assert len(stepped) >= 20 and max(gaps) < 0.3
+    travelled = np.hypot(*np.diff(final[:, :2], axis=0).T).sum()
+    assert travelled > 5.0  # a real building, not the simulated flat's start pose
+    statuses = [m for m in replay.messages if m["type"] == "status"]
+    replays = [s["replay"] for s in statuses if s.get("replay")]
+    assert replays and all(r["log"] == "mit-slice" and r["records"] == SCANS for r in replays)
+    assert any(r["phase"] == "playing" and 0 < r["played"] <= SCANS for r in replays)
+    assert not any(s["sim"] for s in statuses)
+
+
+def test_goals_and_teleop_are_refused_with_a_reason(replay):
+    for name in ("goal", "teleop"):
+        response = replay.refused[name]
+        assert response.status_code == 409, (name, response.text)
+        assert "replaying the log" in response.json()["detail"]
