@@ -25,15 +25,20 @@ def _apt(*args: str) -> None:
         raise RuntimeError(f"apt-get {' '.join(args)} failed ({done.returncode}):\n{done.stderr[-2000:]}")
 
 
-def mosquitto_path() -> str:
-    """The system broker; installed with apt-get (Debian's ``mosquitto`` package) when missing."""
-    path = shutil.which("mosquitto", path=SEARCH_PATH)
+def system_tool(command: str, package: str) -> str:
+    """The path of ``command``; Debian's ``package`` is installed with apt-get when it is missing."""
+    path = shutil.which(command, path=SEARCH_PATH)
     if path is None:
         _apt("update")
-        _apt("install", "-y", "--no-install-recommends", "mosquitto")
-        path = shutil.which("mosquitto", path=SEARCH_PATH)
-    assert path, "mosquitto is not installed even after apt-get install -y mosquitto"
+        _apt("install", "-y", "--no-install-recommends", package)
+        path = shutil.which(command, path=SEARCH_PATH)
+    assert path, f"{command} is not installed even after apt-get install -y {package}"
     return path
+
+
+def mosquitto_path() -> str:
+    """The system broker (Debian's ``mosquitto`` package)."""
+    return system_tool("mosquitto", "mosquitto")
 
 
 class Mosquitto:

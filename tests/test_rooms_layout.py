@@ -7,6 +7,7 @@ from collections import deque
 import numpy as np
 import pytest
 
+from app.db.rooms import RoomStore
 from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.rooms import segment_rooms
 from slam_core.rooms.layout import RoomEditError, follow
@@ -90,6 +91,25 @@ def test_names_merges_and_splits_survive_the_next_segmentation():
     assert again.room_at(8.0, 6.0) == north and again.room_at(8.0, 2.0) == living
     assert again.room_at(5.2, 1.5) == study
     assert len(again.ids()) == len(layout.ids()) == 6
+
+
+def test_a_split_merged_back_stays_merged(tmp_path):
+    grid = ground_truth_map(load_world("flat"), 0.05)
+    segments = segment_rooms(grid)
+    layout = follow(None, segments, grid)
+    hall = layout.room_at(1.0, 3.75)
+    split = layout.split(hall, (3.0, 3.0), (3.0, 4.5))
+    west = split.room_at(1.0, 3.75)
+    assert west != hall
+    merged = split.merged(hall, west)
+    for again in (follow(merged, segments, grid), follow(follow(merged, segments, grid), segments, grid)):
+        assert again.room_at(1.0, 3.75) == again.room_at(5.0, 3.75) == hall
+        assert len(again.ids()) == len(layout.ids())
+    # and the edits come back from the database in the same order
+    store = RoomStore(tmp_path / "rooms.sqlite3")
+    store.save("home", merged)
+    loaded = store.load("home")
+    assert loaded.edits == merged.edits and np.array_equal(loaded.labels, merged.labels)
 
 
 def test_bad_edits_are_refused_with_a_reason():

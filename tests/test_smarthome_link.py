@@ -3,7 +3,6 @@ TLS with a CA file and a username/password."""
 
 from __future__ import annotations
 
-import shutil
 import socket
 import subprocess
 import time
@@ -13,7 +12,7 @@ import pytest
 from app.core.config import Settings
 from app.smarthome.link import MqttLink
 from app.smarthome.topics import Topics
-from tests.mqtt_broker import SEARCH_PATH, Mosquitto
+from tests.mqtt_broker import Mosquitto, system_tool
 from tests.mqtt_observer import Observer
 
 TOPICS = Topics("linktest", "homeassistant", "linktest")
@@ -69,11 +68,11 @@ def test_commands_reach_the_link(tmp_path, broker):
 
 
 def _openssl(*args: str, cwd) -> None:
-    subprocess.run(["openssl", *args], cwd=cwd, check=True, capture_output=True, timeout=60)
+    subprocess.run([system_tool("openssl", "openssl"), *args], cwd=cwd, check=True, capture_output=True,
+                   timeout=60)
 
 
 def test_tls_with_a_ca_file_and_a_password(tmp_path):
-    assert shutil.which("openssl"), "openssl makes the test certificates"
     _openssl("req", "-x509", "-newkey", "rsa:2048", "-nodes", "-days", "2", "-subj", "/CN=test CA",
              "-keyout", "ca.key", "-out", "ca.crt", cwd=tmp_path)
     _openssl("req", "-newkey", "rsa:2048", "-nodes", "-subj", "/CN=127.0.0.1", "-keyout", "server.key",
@@ -81,8 +80,7 @@ def test_tls_with_a_ca_file_and_a_password(tmp_path):
     (tmp_path / "san.ext").write_text("subjectAltName=IP:127.0.0.1\n")
     _openssl("x509", "-req", "-in", "server.csr", "-CA", "ca.crt", "-CAkey", "ca.key", "-CAcreateserial",
              "-days", "2", "-extfile", "san.ext", "-out", "server.crt", cwd=tmp_path)
-    passwd = shutil.which("mosquitto_passwd", path=SEARCH_PATH)
-    assert passwd, "mosquitto_passwd ships with mosquitto"
+    passwd = system_tool("mosquitto_passwd", "mosquitto")
     subprocess.run([passwd, "-b", "-c", str(tmp_path / "passwd"), "robot", "s3cret-pass"], check=True,
                    capture_output=True, timeout=30)
     options = (f"cafile {tmp_path / 'ca.crt'}\ncertfile {tmp_path / 'server.crt'}\n"

@@ -77,6 +77,24 @@ def test_a_robot_carried_into_a_zone_leaves_it_by_the_nearest_way(server):
         assert http.delete(f"/api/zones/{added.json()['id']}").status_code == 204
 
 
+def test_a_zone_drawn_across_the_path_while_driving_is_avoided_at_once(server):
+    x = server.status()["true_pose"][0]
+    with server.client() as http:
+        assert http.post("/api/goal", json={"x": x + 1.5, "y": 3.75}).status_code == 202
+        # Across the whole hall, 0.6 m ahead of the robot: the old path runs straight through it.
+        ahead = [[x + 0.6, 2.9], [x + 0.9, 2.9], [x + 0.9, 4.6], [x + 0.6, 4.6]]
+        zone = NoGoZone(tuple(map(tuple, ahead)))
+        added = http.post("/api/zones", json={"kind": "zone", "points": ahead})
+        assert added.status_code == 201
+        path = http.get("/api/path").json()
+        assert path["state"] == "failed" or not zone.contains(np.array(path["path"]).reshape(-1, 2)).any()
+        for _ in range(15):  # the robot stops short of it
+            assert not zone.contains(np.array(server.status()["true_pose"][:2]))
+            time.sleep(0.2)
+        assert http.delete(f"/api/zones/{added.json()['id']}").status_code == 204
+        http.delete("/api/goal")
+
+
 @pytest.mark.parametrize(("body", "text"), [
     ({"kind": "circle", "points": [[0, 0], [1, 1]]}, "zone"),
     ({"kind": "zone", "points": [[0, 0], [1, 1]]}, "3 to"),

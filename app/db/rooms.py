@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from slam_core.rooms.layout import Edits, RoomLayout, Split
+from slam_core.rooms.layout import Edits, Merge, RoomLayout, Split
 
 LIVE = ""
 
@@ -70,11 +70,23 @@ class RoomStore:
 
 def _edits_json(edits: Edits) -> dict:
     return {"names": {str(k): v for k, v in edits.names.items()},
-            "merged": {str(k): v for k, v in edits.merged.items()},
-            "splits": [[s.room, s.new, list(s.a), list(s.b)] for s in edits.splits]}
+            "operations": [_operation_json(op) for op in edits.operations]}
+
+
+def _operation_json(op: Merge | Split) -> dict:
+    if isinstance(op, Merge):
+        return {"merge": [op.keep, op.absorb]}
+    return {"split": [op.room, op.new, list(op.a), list(op.b)]}
 
 
 def _edits_from(data: dict) -> Edits:
     return Edits(names={int(k): v for k, v in data["names"].items()},
-                 merged={int(k): int(v) for k, v in data["merged"].items()},
-                 splits=tuple(Split(int(r), int(n), tuple(a), tuple(b)) for r, n, a, b in data["splits"]))
+                 operations=tuple(_operation(op) for op in data["operations"]))
+
+
+def _operation(data: dict) -> Merge | Split:
+    if "merge" in data:
+        keep, absorb = data["merge"]
+        return Merge(int(keep), int(absorb))
+    room, new, a, b = data["split"]
+    return Split(int(room), int(new), tuple(a), tuple(b))

@@ -27,7 +27,7 @@ from app.smarthome.link import MqttLink
 from app.smarthome.robot_state import DOCK, robot_state
 from app.smarthome.topics import Topics
 from app.worker.estimators import available_modes
-from app.zones.service import ZoneError
+from app.zones.service import ZoneError, replan_for_zones
 from slam_core.io.render import map_image
 from slam_core.sim.world import load_world
 
@@ -198,6 +198,7 @@ class MqttBridge:
                 answer = {"deleted": command.id}
         except ZoneError as exc:
             raise cmd.CommandError(str(exc)) from None
+        await replan_for_zones(self.runtime.navigator)
         await self.publish_zones()
         return answer
 

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from app.db.rooms import LIVE
 from app.db.zones import ZoneRecord, ZoneStore
+from app.navigation.navigator import Navigator
+from slam_core.planning.errors import PlanningError
 from slam_core.planning.zones import NoGoZone, Restrictions, VirtualWall
 
 KINDS = ("zone", "wall")
@@ -71,3 +73,15 @@ class ZoneService:
 
     def save_as(self, name: str) -> None:
         self.store.copy(self.key, name)
+
+
+async def replan_for_zones(navigator: Navigator) -> None:
+    """After the zones changed: plan the goal being driven to again at once, so the robot does not
+    follow an old path into a new zone; a goal that is now impossible stops the robot with the reason."""
+    goal = navigator.goal
+    if navigator.state != "driving" or goal is None:
+        return
+    try:
+        await navigator.set_goal(goal)
+    except PlanningError as exc:
+        navigator.cancel("failed", str(exc))

@@ -7,6 +7,8 @@ from pathlib import Path
 import numpy as np
 from PIL import Image, ImageDraw
 
+from slam_core.io.caption import draw_caption
+
 #: Ellipses are drawn at this many standard deviations (chi-square 2 dof: 3 sigma ~ 98.9 %).
 ELLIPSE_SIGMAS = 3.0
 ELLIPSE_POINTS = 36
@@ -59,6 +61,6 @@ def save_landmark_png(path, landmarks, covariances, trajectory=None, points=None
         (cx, cy), = px(mean)
         draw.rectangle((cx - 1, cy - 1, cx + 1, cy + 1), fill=(0, 0, 120))
     if caption:
-        draw.text((4, 4), caption, fill=(20, 20, 160))
+        draw_caption(draw, (4, 4), caption, (20, 20, 160))
     img.save(path)
     return path

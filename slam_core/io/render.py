@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 from PIL import Image, ImageDraw
 
+from slam_core.io.caption import draw_caption
 from slam_core.occupancy_grid import OccupancyGrid
 
 
@@ -27,6 +28,6 @@ def save_png(grid: OccupancyGrid, path, trajectory=None, caption: str | None = N
         ny = grid.shape[0]
         draw.line([(int(c[0]), ny - 1 - int(c[1])) for c in cells], fill=(220, 30, 30), width=1)
     if caption:
-        draw.text((4, 4), caption, fill=(20, 20, 160))
+        draw_caption(draw, (4, 4), caption, (20, 20, 160))
     img.save(path)
     return path

@@ -38,12 +38,19 @@ class Split:
 
 
 @dataclass(frozen=True)
+class Merge:
+    """Room ``absorb`` joined room ``keep``."""
+
+    keep: int
+    absorb: int
+
+
+@dataclass(frozen=True)
 class Edits:
-    """What people changed: names, merges (``absorbed id -> kept id``) and splits, in order."""
+    """What people changed: names, and merges and splits in the order they were made."""
 
     names: dict[int, str] = field(default_factory=dict)
-    merged: dict[int, int] = field(default_factory=dict)
-    splits: tuple[Split, ...] = ()
+    operations: tuple[Merge | Split, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -108,7 +115,7 @@ class RoomLayout:
             raise RoomEditError("a room cannot be merged with itself")
         labels = np.where(self.labels == absorb, keep, self.labels).astype(np.int32)
         names = {k: v for k, v in self.edits.names.items() if k != absorb}
-        edits = replace(self.edits, names=names, merged={**self.edits.merged, absorb: keep})
+        edits = replace(self.edits, names=names, operations=(*self.edits.operations, Merge(keep, absorb)))
         return replace(self, labels=labels, edits=edits)
 
     def split(self, room: int, a, b) -> RoomLayout:
@@ -120,7 +127,7 @@ class RoomLayout:
         labels = _apply_split(self.labels, self.origin, self.resolution, cut)
         if (labels == cut.new).sum() < MIN_SPLIT_CELLS or (labels == room).sum() < MIN_SPLIT_CELLS:
             raise RoomEditError("the line does not cut the room in two")
-        edits = replace(self.edits, splits=(*self.edits.splits, cut))
+        edits = replace(self.edits, operations=(*self.edits.operations, cut))
         return replace(self, labels=labels, next_id=self.next_id + 1, edits=edits)
 
     def _check(self, room: int) -> None:
@@ -134,8 +141,9 @@ def follow(previous: RoomLayout | None, segments: np.ndarray, grid: OccupancyGri
     if previous is None:
         return RoomLayout(segments.astype(np.int32), origin, grid.resolution, int(segments.max()) + 1)
     old = _aligned(previous, origin, segments.shape)
-    for cut in reversed(previous.edits.splits):  # match against the rooms as segmented, splits undone
-        old[old == cut.new] = cut.room
+    for cut in reversed(previous.edits.operations):  # match against the rooms as segmented: splits undone
+        if isinstance(cut, Split):
+            old[old == cut.new] = cut.room
     labels = np.zeros(segments.shape, np.int32)
     next_id = previous.next_id
     n = int(segments.max())
@@ -157,10 +165,11 @@ def follow(previous: RoomLayout | None, segments: np.ndarray, grid: OccupancyGri
         if keep is None:
             keep, next_id = next_id, next_id + 1
         labels[segments == segment] = keep
-    for absorbed, kept in previous.edits.merged.items():
-        labels[labels == absorbed] = kept
-    for cut in previous.edits.splits:
-        labels = _apply_split(labels, origin, grid.resolution, cut)
+    for edit in previous.edits.operations:
+        if isinstance(edit, Merge):
+            labels[labels == edit.absorb] = edit.keep
+        else:
+            labels = _apply_split(labels, origin, grid.resolution, edit)
     return RoomLayout(labels, origin, grid.resolution, next_id, previous.edits)
 
 

@@ -22,6 +22,7 @@ const HINTS = {
   place: "Click the map where the new place is (drag to give it a heading).",
   zone: "No-go zone: click its corners on the map, then Finish (Esc cancels).",
   wall: "Virtual wall: click both ends on the map (Esc cancels).",
+  split: "Split the room: click two points on the map; the room is cut along that line (Esc cancels).",
 };
 
 const $ = (id) => document.getElementById(id);
@@ -281,7 +282,7 @@ class Dashboard {
         await this.api.setPose(x, y, heading);
         this.toast("Pose set: localization restarts around it");
         this.setTool("goal");
-      } else if (tool === "zone" || tool === "wall") {
+      } else if (tool === "zone" || tool === "wall" || tool === "split") {
         this.roomsZones.addPoint(x, y);
       } else if (tool === "place") {
         const name = this.panels.placeNameOrComplain();

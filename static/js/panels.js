@@ -25,6 +25,7 @@ export class Panels {
     this.mapForm = root.getElementById("map-form");
     this.mapName = root.getElementById("map-name");
     this.mapsList = root.getElementById("maps");
+    this.landmarksLayer = root.querySelector("[data-layer=landmarks]");
 
     for (const button of this.modes.querySelectorAll("[data-mode]")) {
       button.addEventListener("click", () => this.setMode(button.dataset.mode));
@@ -63,6 +64,9 @@ export class Panels {
     const paused = s?.mapping === false;
     this.mappingToggle.textContent = paused ? "Resume mapping" : "Pause mapping";
     this.mappingToggle.disabled = s?.mode !== "mapping";
+    // Shown only where they do something: the map choice for localization, landmarks in EKF mode.
+    this.modeMap.closest("label").hidden = s?.mode !== "localization";
+    this.landmarksLayer.closest("label").hidden = s?.mode !== "ekf";
   }
 
   async setMode(mode) {
@@ -128,8 +132,8 @@ export class Panels {
     const items = this.state.places.map((place) => {
       const li = el("li", { className: "place" });
       li.dataset.name = place.name;
-      const label = el("span", { className: "name", title: "rename" }, place.name, " ",
-        el("span", { className: "sub" }, `(${place.x.toFixed(1)}, ${place.y.toFixed(1)})`));
+      const label = el("span", { className: "name", title: "rename" }, place.name,
+        el("span", { className: "sub coords" }, `(${place.x.toFixed(1)}, ${place.y.toFixed(1)})`));
       const go = el("button", { type: "button", textContent: "Go", className: "primary" });
       go.addEventListener("click", () => this.run(() => this.api.goToPlace(place.name), `Going to ${place.name}`));
       const rename = el("button", { type: "button", textContent: "Rename" });

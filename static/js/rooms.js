@@ -1,5 +1,6 @@
 // Rooms and no-go zones, on the map and in the sidebar: each room in its colour with its name
-// (api/rooms/overlay), the room list with "Go", and the editor for no-go zones (click the corners,
+// (api/rooms/overlay), the room list with "Go", "Rename", "Merge into" and "Split" (click two points
+// on the map: the line the room is cut along), and the editor for no-go zones (click the corners,
 // then Finish) and virtual walls (click both ends). Everything goes through the REST API.
 
 const REFRESH_MS = 5000;
@@ -23,7 +24,8 @@ export class RoomsAndZones {
     this.overlay = null;
     this.image = null;
     this.zones = [];
-    this.draft = null; // {kind: "zone" | "wall", points: [[x, y], ...]}
+    this.draft = null; // {kind: "zone" | "wall" | "split", points: [[x, y], ...], room?: id}
+    this.renaming = null; // the id of the room whose name is being edited (the list then waits)
     this.roomsList = root.getElementById("rooms");
     this.zonesList = root.getElementById("zones");
     this.finishButton = root.getElementById("zone-finish");
@@ -53,7 +55,7 @@ export class RoomsAndZones {
         else this.image = null;
       }
       this.overlay = overlay;
-      this.renderLists();
+      if (this.renaming === null) this.renderLists();
       this.redraw();
     } catch {
       // offline or signed out: the status bar says so; try again at the next refresh
@@ -67,7 +69,15 @@ export class RoomsAndZones {
         swatch.style.background = room.colour;
         const go = el("button", { type: "button", textContent: "Go", title: `Drive to ${room.name}` });
         go.addEventListener("click", () => this.goTo(room));
-        const li = el("li", {}, swatch, el("span", { className: "name", textContent: room.name }), go);
+        const rename = el("button", { type: "button", textContent: "Rename" });
+        const split = el("button", { type: "button", textContent: "Split", title: "Then click two points on the map" });
+        const merge = el("select", { ariaLabel: `Merge ${room.name} into`, title: "Merge into another room" },
+          el("option", { value: "", textContent: "Merge into…" }),
+          ...this.overlay.rooms.filter((r) => r.id !== room.id).map((r) => el("option", { value: r.id, textContent: r.name })));
+        const li = el("li", {}, swatch, el("span", { className: "name", textContent: room.name }), go, rename, split, merge);
+        rename.addEventListener("click", () => this.editName(li, room));
+        split.addEventListener("click", () => this.begin("split", room.id));
+        merge.addEventListener("change", () => merge.value && this.merge(Number(merge.value), room));
         li.dataset.room = room.id;
         return li;
       }),
@@ -82,6 +92,45 @@ export class RoomsAndZones {
         return li;
       }),
     );
+  }
+
+  editName(li, room) {
+    this.renaming = room.id;
+    const input = el("input", { value: room.name, maxLength: 64, ariaLabel: "New room name" });
+    const save = el("button", { type: "submit", textContent: "Save", className: "primary" });
+    const cancel = el("button", { type: "button", textContent: "Cancel" });
+    const form = el("form", { className: "row rename" }, input, save, cancel);
+    form.addEventListener("submit", async (e) => {
+      e.preventDefault();
+      const name = input.value.trim();
+      try {
+        if (name && name !== room.name) {
+          await this.api.request("PATCH", `rooms/${room.id}`, { name });
+          this.notify(`Room renamed to "${name}"`);
+        }
+      } catch (err) {
+        this.fail(err);
+      }
+      this.renaming = null;
+      await this.refresh();
+    });
+    cancel.addEventListener("click", () => {
+      this.renaming = null;
+      this.renderLists();
+    });
+    li.replaceChildren(form);
+    input.focus();
+    input.select();
+  }
+
+  async merge(keep, room) {
+    try {
+      await this.api.request("POST", "rooms/merge", { keep, absorb: room.id });
+      this.notify(`${room.name} merged`);
+    } catch (err) {
+      this.fail(err);
+    }
+    await this.refresh();
   }
 
   async goTo(room) {
@@ -102,9 +151,9 @@ export class RoomsAndZones {
     }
   }
 
-  begin(kind) {
-    this.draft = { kind, points: [] };
-    this.finishButton.hidden = kind === "wall";
+  begin(kind, room = null) {
+    this.draft = { kind, points: [], room };
+    this.finishButton.hidden = kind !== "zone";
     this.setTool(kind);
     this.redraw();
   }
@@ -113,7 +162,7 @@ export class RoomsAndZones {
   addPoint(x, y) {
     if (!this.draft) return;
     this.draft.points.push([x, y]);
-    if (this.draft.kind === "wall" && this.draft.points.length === 2) this.finish();
+    if (this.draft.kind !== "zone" && this.draft.points.length === 2) this.finish();
     this.redraw();
   }
 
@@ -122,8 +171,14 @@ export class RoomsAndZones {
     if (!draft) return;
     this.cancel();
     try {
-      await this.api.request("POST", "zones", { kind: draft.kind, points: draft.points });
-      this.notify(draft.kind === "wall" ? "Virtual wall added" : "No-go zone added");
+      if (draft.kind === "split") {
+        const [a, b] = draft.points;
+        await this.api.request("POST", `rooms/${draft.room}/split`, { a, b });
+        this.notify("Room split");
+      } else {
+        await this.api.request("POST", "zones", { kind: draft.kind, points: draft.points });
+        this.notify(draft.kind === "wall" ? "Virtual wall added" : "No-go zone added");
+      }
       await this.refresh();
     } catch (err) {
       this.fail(err);

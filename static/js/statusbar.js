@@ -51,7 +51,12 @@ export class StatusBar {
     }
     const nav = state.path?.state ?? s?.nav?.state ?? "idle";
     const reason = state.path?.reason ?? s?.nav?.reason;
-    setPill(this.nav, nav + (nav === "failed" && reason ? `: ${reason}` : ""), nav === "failed" ? "warn" : nav === "arrived" ? "good" : "");
+    // The reason of a failure is in the error pill already: here only the state (and the tour).
+    const touring = s?.nav?.touring === true && nav !== "failed";
+    setPill(this.nav, touring ? `tour: ${nav}` : nav, nav === "failed" ? "warn" : nav === "arrived" ? "good" : "");
+    this.nav.title = touring
+      ? "The scripted tour is running; a goal, driving by hand or Cancel ends it."
+      : `navigation${reason ? `: ${reason}` : ""}`;
 
     const message = state.lastError?.message ?? worker?.last_error ?? null;
     this.error.hidden = !message;
@@ -67,7 +72,8 @@ export class StatusBar {
       ["pose", pose ? `x ${pose.x.toFixed(2)} m, y ${pose.y.toFixed(2)} m, ${degrees(pose.yaw).toFixed(0)}°` : "—"],
       ["stream", `${this.state.rate("pose").toFixed(1)} poses/s`],
       ["map", s?.map ? `${s.map.width}×${s.map.height} cells @ ${(s.map.resolution * 100).toFixed(0)} cm` : "—"],
-      ["path", s?.path_length ? `${s.path_length.toFixed(2)} m` : "—"],
+      ["room", s?.room ?? "—"],
+      ["path", s?.nav?.state === "driving" && s?.path_length ? `${s.path_length.toFixed(2)} m` : "—"],
       ["worker", worker ? `pid ${worker.pid ?? "—"}, ${worker.steps ?? 0} steps, ${worker.restarts ?? 0} restarts` : "—"],
       ["source", s ? (s.sim ? "simulation" : "robot") : "—"],
     ];

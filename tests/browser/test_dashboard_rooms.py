@@ -92,14 +92,66 @@ def test_rooms_are_listed_and_drawn_in_their_colours(dashboard, homebot_server):
     assert "no-go zones" in page.locator("#legend").inner_text()
 
 
+def test_a_room_is_renamed_in_the_list(dashboard, homebot_server):
+    page = dashboard
+    first = page.locator("#rooms li").first
+    room = first.get_attribute("data-room")
+    first.get_by_role("button", name="Rename").click()
+    page.fill("#rooms form.rename input", "Hall")
+    page.click("#rooms form.rename button[type=submit]")
+    page.wait_for_selector(f"#rooms li[data-room='{room}'] .name:text-is('Hall')", timeout=TIMEOUT_MS)
+    assert "Hall" in {r["name"] for r in homebot_server.api("GET", "rooms").json()}
+
+
+def test_a_room_is_split_along_a_drawn_line_and_merged_back(dashboard, homebot_server):
+    page = dashboard
+    hall = page.locator("#rooms li", has=page.locator(".name:text-is('Hall')"))
+    hall_id = int(hall.get_attribute("data-room"))
+    before = {r["id"] for r in homebot_server.api("GET", "rooms").json()}
+    hall.get_by_role("button", name="Split").click()
+    assert "Split the room" in page.locator("#hint").inner_text()
+    _click_world(page, 3.0, 2.9)  # across the hall (y 3.0 to 4.5) at x = 3
+    _click_world(page, 3.0, 4.6)
+    page.wait_for_function(f"document.querySelectorAll('#rooms li').length === {len(before) + 1}",
+                           timeout=TIMEOUT_MS)
+    rooms = {r["id"]: r for r in homebot_server.api("GET", "rooms").json()}
+    (new,) = rooms.keys() - before
+    assert rooms[new]["centroid"][0] < 3.0 < rooms[hall_id]["centroid"][0]  # the west part is new
+    page.locator(f"#rooms li[data-room='{new}'] select").select_option(str(hall_id))
+    page.wait_for_function(f"document.querySelectorAll('#rooms li').length === {len(before)}",
+                           timeout=TIMEOUT_MS)
+    assert {r["id"] for r in homebot_server.api("GET", "rooms").json()} == before
+
+
 def test_go_drives_the_robot_to_the_room(dashboard, homebot_server):
     page = dashboard
     first = page.locator("#rooms li").first
     name = first.locator(".name").inner_text()
-    first.locator("button").click()
+    first.get_by_role("button", name="Go").click()
     page.wait_for_function(f"window.homebot.state.path.goal?.place === {name!r}", timeout=TIMEOUT_MS)
     page.wait_for_function("window.homebot.state.path.state === 'arrived'", timeout=TIMEOUT_MS)
     assert homebot_server.api("GET", "status").json()["room"] == name
+    # The robot's details name its room, and no path length is left over after arrival.
+    page.wait_for_function(f"window.homebot.state.status?.room === {name!r} && "
+                           "window.homebot.state.status?.nav?.state === 'arrived'", timeout=TIMEOUT_MS)
+    details = dict(zip(page.locator("#details dt").all_inner_texts(),
+                       page.locator("#details dd").all_inner_texts(), strict=True))
+    assert details["room"] == name and details["path"] == "—"
+
+
+def test_the_sidebar_shows_only_what_works_in_mapping_mode(dashboard, homebot_server):
+    page = dashboard
+    assert page.locator("#mode-map").is_hidden()  # "Map for localization": only in localization mode
+    assert page.locator("[data-layer=landmarks]").is_hidden()  # landmarks: only in EKF mode
+    assert page.locator("[data-layer=path]").is_visible()
+    long_name = "the long sofa by the living room window"
+    added = homebot_server.api("POST", "places", json={"name": long_name, "x": 2.0, "y": 3.8})
+    assert added.status_code == 201
+    page.evaluate("window.homebot.panels.refreshPlaces()")
+    coords = page.locator(f"li.place[data-name='{long_name}'] .coords")
+    coords.wait_for()
+    assert coords.inner_text() == "(2.0, 3.8)"
+    assert coords.evaluate("e => e.scrollWidth <= e.clientWidth")  # not cut off by the long name
 
 
 def test_a_zone_and_a_wall_are_drawn_with_the_mouse(dashboard, homebot_server, artifacts):

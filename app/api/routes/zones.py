@@ -10,7 +10,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from app.api.deps import RuntimeDep
 from app.api.models import Coordinate
-from app.zones.service import ZoneError
+from app.zones.service import ZoneError, replan_for_zones
 
 router = APIRouter(prefix="/zones", tags=["zones"])
 
@@ -42,6 +42,7 @@ async def create_zone(body: ZoneBody, runtime: RuntimeDep) -> dict:
         record = await asyncio.to_thread(runtime.zones.add, body.kind, body.points)
     except ZoneError as exc:
         raise HTTPException(status.HTTP_422_UNPROCESSABLE_CONTENT, str(exc)) from None
+    await replan_for_zones(runtime.navigator)
     return record.dict()
 
 
@@ -52,4 +53,5 @@ async def delete_zone(runtime: RuntimeDep, zone_id: int = Path(ge=1)) -> Respons
         await asyncio.to_thread(runtime.zones.delete, zone_id)
     except ZoneError as exc:
         raise HTTPException(status.HTTP_404_NOT_FOUND, str(exc)) from None
+    await replan_for_zones(runtime.navigator)
     return Response(status_code=status.HTTP_204_NO_CONTENT)
