@@ -66,13 +66,15 @@ def snapshot(canvas: MapCanvas) -> Snapshot:
     return Snapshot(canvas.cells.copy(), canvas.frame.origin, canvas.frame.resolution)
 
 
-async def _watch(port: int) -> list[Closure]:
+async def _watch(port: int, proc: subprocess.Popen) -> list[Closure]:
     deadline = time.monotonic() + START_TIMEOUT_S
     while True:
         try:
             ws = await websockets.connect(f"ws://127.0.0.1:{port}/ws?token={TOKEN}", max_size=None)
             break
         except OSError:
+            if proc.poll() is not None:
+                raise RuntimeError(f"homebot serve exited: {proc.stdout.read()}") from None
             if time.monotonic() > deadline:
                 raise
             await asyncio.sleep(0.2)
@@ -129,7 +131,7 @@ def drifting(tmp_path_factory):
          "--replay", str(rec.log), "--speed", "max", "--exit-at-end", "--config", str(config_file)],
         cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     try:
-        closures = asyncio.run(_watch(port))
+        closures = asyncio.run(_watch(port, proc))
         output, _ = proc.communicate(timeout=600)
     finally:
         if proc.poll() is None:

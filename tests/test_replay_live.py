@@ -47,7 +47,7 @@ class Replay:
     refused: dict[str, httpx.Response]
 
 
-async def _watch(port: int) -> tuple[list[dict], dict[str, httpx.Response]]:
+async def _watch(port: int, proc: subprocess.Popen) -> tuple[list[dict], dict[str, httpx.Response]]:
     """Every text message of the stream until the server closes it; goal and teleop tried once
     while the log plays."""
     deadline = time.monotonic() + START_TIMEOUT_S
@@ -56,6 +56,8 @@ async def _watch(port: int) -> tuple[list[dict], dict[str, httpx.Response]]:
             ws = await websockets.connect(f"ws://127.0.0.1:{port}/ws?token={TOKEN}", max_size=None)
             break
         except OSError:
+            if proc.poll() is not None:
+                raise RuntimeError(f"homebot serve exited: {proc.stdout.read()}") from None
             if time.monotonic() > deadline:
                 raise
             await asyncio.sleep(0.2)
@@ -88,7 +90,7 @@ def replay(tmp_path_factory) -> Replay:
          "--replay", str(log), "--speed", "max", "--exit-at-end", "--config", str(config_file)],
         cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     try:
-        messages, refused = asyncio.run(_watch(port))
+        messages, refused = asyncio.run(_watch(port, proc))
         output, _ = proc.communicate(timeout=RUN_TIMEOUT_S)
     finally:
         if proc.poll() is None:

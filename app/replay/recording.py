@@ -31,8 +31,9 @@ from slam_core.rbpf import RBPFSlam
 
 @dataclass(frozen=True)
 class ReplayProgress:
-    """The replay part of the status: which log, how far, and the phase
-    (``playing``, ``optimising``, ``finished``)."""
+    """The replay part of the status: which log, how far, and the phase (``playing``,
+    ``optimising``, ``finished``; ``failed`` when mapping stopped before the end, the map
+    having outgrown its limit)."""
 
     log: str
     speed: float | None  # None: as fast as the worker steps

@@ -348,6 +348,8 @@ class Worker:
                 pair = self.pairing.next(WAIT_S)
                 if pair is not None:
                     self._step(pair)
+                    if self.replay is not None:
+                        self.feed.mark_stepped(pair.scan_seq - 1)  # stepped or skipped, the feed goes on
                 self._take_back_end()
                 if self._replay_played():
                     self._finish_replay()
@@ -390,7 +392,6 @@ class Worker:
             self._draw_update(scan)
         if self.replay is not None:
             self.replay.stepped(pair.scan_seq - 1, updated, self.estimator.stats.updates - 1)
-            self.feed.mark_stepped(pair.scan_seq - 1)
         estimate = self.estimator.estimate()
         if not dead_reckons(self.estimator):
             estimate = self._dead_reckoned(estimate, relative(self.updated_at, odometry))
@@ -452,6 +453,10 @@ class Worker:
         self._event("replay_optimising", replay=self._replay_progress())
         if self.back_end is not None:
             self.back_end.wait()
+        if not isinstance(self.estimator, RBPFSlam):  # mapping paused: the map outgrew its limit
+            self.replay.phase = "failed"
+            self._event("replay_finished", replay=self._replay_progress(), loop_edges=0, paths=[])
+            return
         result = self.replay.finish(self.estimator)
         self._attach_back_end(seeded=True)
         self.pose = result.poses[-1].copy()
