@@ -49,9 +49,11 @@ class BackEndResult:
         return compose(self.poses[-1], inverse(self.filter_poses[-1]))
 
 
-def render(config: RBPFConfig, mount: LaserMount, poses: np.ndarray, scans: list[Scan]) -> OccupancyGrid:
-    """The map of ``scans`` taken from robot ``poses`` by a laser at ``mount``."""
-    grid = OccupancyGrid(config.resolution, model=config.sensor)
+def render(config: RBPFConfig, mount: LaserMount, poses: np.ndarray, scans: list[Scan],
+           layout: OccupancyGrid) -> OccupancyGrid:
+    """The map of ``scans`` taken from robot ``poses`` by a laser at ``mount``, on the cells of
+    ``layout`` (the filter's map: the published map keeps its extent unless a scan reaches out)."""
+    grid = OccupancyGrid(config.resolution, layout.origin, layout.shape, model=config.sensor)
     for pose, scan in zip(mount.laser_poses(poses), scans, strict=True):
         grid.integrate(scan, pose)
     return grid
@@ -86,15 +88,16 @@ class LiveBackEnd:
         if len(self.scans) % self.config.loop_closure.submap_updates or self.busy:
             return
         poses = best_updates(slam).poses
-        self._thread = threading.Thread(target=self._solve, args=(poses, list(self.scans)),
+        layout = slam.occupancy_map()
+        self._thread = threading.Thread(target=self._solve, args=(poses, list(self.scans), layout),
                                         name="live-back-end", daemon=True)
         self._thread.start()
 
-    def _solve(self, poses: np.ndarray, scans: list[Scan]) -> None:
+    def _solve(self, poses: np.ndarray, scans: list[Scan], layout: OccupancyGrid) -> None:
         started = time.perf_counter()
         c = self.config
         closed, _ = close_loops(poses, scans, c.loop_closure, c.matcher, c.resolution, c.sensor, self.mount)
-        grid = render(c, self.mount, closed.poses, scans)
+        grid = render(c, self.mount, closed.poses, scans, layout)
         result = BackEndResult(closed.poses, poses, closed.loop_edges, grid, time.perf_counter() - started)
         with self._lock:
             self._done = result
