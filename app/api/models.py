@@ -125,7 +125,7 @@ class ModeBody(Strict):
     map: MapName | None = None
     #: Mapping only: throw the current map away and start an empty one (otherwise every mode
     #: switch keeps the map).
-    new_map: bool = False
+    new_map: bool = Field(False, strict=True, description="mapping only: start an empty map")
 
     @model_validator(mode="after")
     def _new_map_is_for_mapping(self):
