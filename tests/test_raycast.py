@@ -6,7 +6,7 @@ from fractions import Fraction
 
 import numpy as np
 import pytest
-from hypothesis import assume, given, settings
+from hypothesis import assume, example, given, settings
 from hypothesis import strategies as st
 
 from slam_core.occupancy_grid import OccupancyGrid, SensorModel
@@ -112,6 +112,7 @@ coords = st.floats(-12.0, 12.0, allow_nan=False, allow_infinity=False)
 
 @settings(deadline=None, max_examples=300)
 @given(coords, coords, coords, coords)
+@example(0.0, 0.0, 4.0, 11.999999999999998)  # grazes the corner (1, 3): the reference's sliver cell (0, 3)
 def test_trace_is_a_4_connected_superset_of_the_reference(x0, y0, x1, y1):
     fast = trace(x0, y0, x1, y1)
     ref = naive.ray_cells(x0, y0, x1, y1)
@@ -121,8 +122,12 @@ def test_trace_is_a_4_connected_superset_of_the_reference(x0, y0, x1, y1):
     assert len(fast) <= ray_buffer_size(math.hypot(x1 - x0, y1 - y0), 1.0)   # the kernel's buffer
     for (ax, ay), (bx, by) in itertools.pairwise(fast):
         assert abs(bx - ax) + abs(by - ay) == 1
+    # Every reference cell, in order; a cell the segment only grazes within rounding of one of
+    # its corners (the reference gives it a sliver of length ~1e-16) may be left out.
+    cells = set(fast)
+    kept = [c for c in ref if c in cells or _distance_to_cell_corners(x0, y0, x1, y1, c) >= 1e-9]
     it = iter(fast)
-    assert all(c in it for c in ref), "reference cells missing or out of order"
+    assert all(c in it for c in kept), "reference cells missing or out of order"
     if not touches_lattice_point(x0, y0, x1, y1):
         # Away from exact corners the two agree, up to rounding right next to a corner.
         extra = set(fast) - set(ref)
@@ -136,6 +141,11 @@ def _nearest_corner(x0, y0, x1, y1):
     xs = range(math.floor(min(x0, x1)), math.floor(max(x0, x1)) + 2)
     ys = range(math.floor(min(y0, y1)), math.floor(max(y0, y1)) + 2)
     return min(_distance_to_corner(x0, y0, x1, y1, i, j) for i in xs for j in ys)
+
+
+def _distance_to_cell_corners(x0, y0, x1, y1, cell):
+    cx, cy = cell
+    return min(_distance_to_corner(x0, y0, x1, y1, cx + i, cy + j) for i in (0, 1) for j in (0, 1))
 
 
 def _distance_to_corner(x0, y0, x1, y1, px, py):
