@@ -78,7 +78,7 @@ async def read_overlay(runtime: RuntimeDep) -> dict:
     return await asyncio.to_thread(build)
 
 
-@router.patch("/{room}", response_model=list[Room])
+@router.patch("/{room:int}", response_model=list[Room])
 async def update_room(body: RoomPatch, runtime: RuntimeDep, room: int = RoomId) -> list[dict]:
     """Rename a room (409 when another room has that name)."""
     return await _edited(runtime.rooms, lambda layout: layout.renamed(room, body.name))
@@ -90,13 +90,13 @@ async def create_merge(body: MergeBody, runtime: RuntimeDep) -> list[dict]:
     return await _edited(runtime.rooms, lambda layout: layout.merged(body.keep, body.absorb))
 
 
-@router.post("/{room}/split", response_model=list[Room])
+@router.post("/{room:int}/split", response_model=list[Room])
 async def create_split(body: SplitBody, runtime: RuntimeDep, room: int = RoomId) -> list[dict]:
     """Split a room along the line through ``a`` and ``b``; the part left of a->b gets a new id."""
     return await _edited(runtime.rooms, lambda layout: layout.split(room, body.a, body.b))
 
 
-@router.post("/{room}/go", response_model=GoalResponse, status_code=status.HTTP_202_ACCEPTED)
+@router.post("/{room:int}/go", response_model=GoalResponse, status_code=status.HTTP_202_ACCEPTED)
 async def create_room_goal(runtime: RuntimeDep, room: int = RoomId) -> dict:
     """Drive to the middle of the room (its point farthest from walls and doorways)."""
     try:
