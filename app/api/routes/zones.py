@@ -46,7 +46,7 @@ async def create_zone(body: ZoneBody, runtime: RuntimeDep) -> dict:
     return record.dict()
 
 
-@router.delete("/{zone_id}", status_code=status.HTTP_204_NO_CONTENT, response_class=Response)
+@router.delete("/{zone_id:int}", status_code=status.HTTP_204_NO_CONTENT, response_class=Response)
 async def delete_zone(runtime: RuntimeDep, zone_id: int = Path(ge=1)) -> Response:
     """Remove a zone or wall."""
     try:
