@@ -62,8 +62,9 @@ class Runtime:
         settings.maps_dir.mkdir(parents=True, exist_ok=True)
         self.store = Store(settings.db_path)
         self.hub = Hub(self.full_map_frame, settings.client_send_timeout_s)
-        tour = load_world(settings.world).tour if settings.simulation and settings.sim_tour else None
-        self.navigator = Navigator(settings, self.current_grid, self.current_pose, self.send_velocity, tour)
+        tour = load_world(settings.world).tour if settings.simulation else None
+        self.navigator = Navigator(settings, self.current_grid, self.current_pose, self.send_velocity, tour,
+                                   touring=settings.sim_tour)
         self.rooms = RoomService(self.current_grid, RoomStore(settings.db_path))
         self.zones = ZoneService(ZoneStore(settings.db_path))
         self.navigator.restrictions = self.zones.restrictions

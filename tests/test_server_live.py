@@ -230,7 +230,7 @@ def test_killed_worker_restarts_and_the_map_is_still_there(server):
 
 
 def test_an_idle_simulated_robot_tours_until_a_person_takes_over(tmp_path):
-    """The default: the robot drives the world's tour by itself; teleop ends the tour."""
+    """The default: the robot drives the world's tour by itself; teleop ends it; api/tour restarts it."""
     touring = LiveServer(tmp_path / "tour", env={"HOMEBOT_SIM_TOUR": "1"}).start()
     try:
         with touring.client() as c:
@@ -246,5 +246,11 @@ def test_an_idle_simulated_robot_tours_until_a_person_takes_over(tmp_path):
             assert c.post("/api/teleop", json={"v": 0.0, "w": 0.0}).status_code == 200
             status = c.get("/api/status").json()
             assert not status["nav"]["touring"] and status["goal"] is None
+            assert c.post("/api/tour").json() == {"ok": True}  # the tour starts again from its start
+            deadline = time.monotonic() + 30
+            while time.monotonic() < deadline and (status["goal"] or {}).get("place") != "tour":
+                time.sleep(0.5)
+                status = c.get("/api/status").json()
+            assert status["nav"]["touring"] and status["goal"]["place"] == "tour", status
     finally:
         touring.stop()

@@ -71,13 +71,14 @@ class Navigator:
     robot whose path left stops shrinking for ``stuck_after_s`` backs off and replans; after
     ``MAX_RECOVERIES`` of those it stops with state ``stuck``.
 
-    Given ``tour`` waypoints, an idle robot drives to them in turn until a person takes over
-    (a goal, teleop or a cancel from the API).
+    Given ``tour`` waypoints, an idle robot drives to them in turn (from the start if
+    ``touring``, else once :meth:`start_tour` is called) until a person takes over (a goal,
+    teleop or a cancel from the API).
     """
 
     def __init__(self, settings: Settings, grid: Callable[[], OccupancyGrid | None],
                  pose: Callable[[], np.ndarray | None], send_velocity: Callable[[float, float], None],
-                 tour: np.ndarray | None = None):
+                 tour: np.ndarray | None = None, touring: bool = True):
         self.settings = settings
         self._grid = grid
         self._pose = pose
@@ -95,6 +96,7 @@ class Navigator:
         self._generation = 0
         self._tour = None if tour is None or len(tour) == 0 else np.asarray(tour, float)
         self._tour_next = 0
+        self._touring = touring and self._tour is not None
         self._watch = ProgressWatch(settings.stuck_after_s)
         self._recoveries = 0
         self._backing_until = 0.0
@@ -119,18 +121,27 @@ class Navigator:
 
     @property
     def touring(self) -> bool:
-        return self._tour is not None
+        return self._touring
 
     def take_over(self) -> None:
         """A person is in charge from now on: the tour ends."""
-        self._tour = None
+        self._touring = False
+
+    def start_tour(self) -> bool:
+        """Stop and drive the tour again from its first waypoint; False if there is no tour."""
+        if self._tour is None:
+            return False
+        self._teleop = None
+        self.cancel()
+        self._tour_next, self._touring = 0, True
+        return True
 
     async def set_goal(self, goal: Goal) -> dict:
         """Plan to ``goal`` and start driving; raises :class:`PlanningError` (the reason) when impossible."""
         if goal.place != TOUR:
             self.take_over()
         path = await self._plan(goal)
-        if goal.place == TOUR and self._tour is None:
+        if goal.place == TOUR and not self._touring:
             return self.snapshot()  # a person took over while this tour stop was being planned
         self._generation += 1
         self._teleop = None
@@ -178,7 +189,7 @@ class Navigator:
                 self._send(0.0, 0.0)
             return
         if self.state != "driving" or self.goal is None:
-            if self._tour is not None:
+            if self._touring:
                 await self._next_tour_stop()
             return
         pose = self._pose()

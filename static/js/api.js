@@ -88,6 +88,9 @@ export class Api {
   cancelGoal() {
     return this.request("DELETE", "goal");
   }
+  restartTour() {
+    return this.request("POST", "tour");
+  }
   setMode(mode, map, newMap = false) {
     return this.request("PUT", "mode", { mode, ...(map ? { map } : {}), ...(newMap ? { new_map: true } : {}) });
   }

@@ -19,6 +19,7 @@ export class Panels {
     this.modes = root.getElementById("modes");
     this.modeMap = root.getElementById("mode-map");
     this.mappingToggle = root.getElementById("mapping-toggle");
+    this.tourRestart = root.getElementById("tour-restart");
     this.placeForm = root.getElementById("place-form");
     this.placeName = root.getElementById("place-name");
     this.placesList = root.getElementById("places");
@@ -32,6 +33,7 @@ export class Panels {
     }
     this.mappingToggle.addEventListener("click", () => this.toggleMapping());
     root.getElementById("new-map").addEventListener("click", () => this.startNewMap());
+    this.tourRestart.addEventListener("click", () => this.run(() => this.api.restartTour(), "Tour restarted"));
     this.placeForm.addEventListener("submit", (e) => {
       e.preventDefault();
       this.addPlaceAtRobot();
@@ -67,6 +69,7 @@ export class Panels {
     // Shown only where they do something: the map choice for localization, landmarks in EKF mode.
     this.modeMap.closest("label").hidden = s?.mode !== "localization";
     this.landmarksLayer.closest("label").hidden = s?.mode !== "ekf";
+    this.tourRestart.hidden = s?.sim !== true; // only the simulated home has a tour
   }
 
   async setMode(mode) {

@@ -328,3 +328,18 @@ def test_a_new_map_is_started_only_once_the_person_confirms(dashboard):
     assert answer.value.status == 200
     assert sent == [{"mode": "mapping", "new_map": True}]
     assert page.js_errors == []
+
+
+def test_the_restart_tour_button_starts_the_scripted_tour_again(dashboard, homebot_server):
+    """The server runs without the tour (HOMEBOT_SIM_TOUR=0): the button starts it, Cancel ends it."""
+    page = dashboard
+    assert homebot_server.api("GET", "status").json()["nav"]["touring"] is False
+    with page.expect_response(lambda r: r.url.endswith("/api/tour")) as answer:
+        page.click("#tour-restart")
+    assert answer.value.status == 200
+    page.wait_for_function("window.homebot.state.status.nav.touring === true", timeout=STREAM_TIMEOUT_MS)
+    assert page.locator("#st-nav").inner_text().startswith("tour:")
+    assert homebot_server.api("GET", "status").json()["nav"]["touring"] is True
+    page.click("#cancel-goal")
+    page.wait_for_function("window.homebot.state.status.nav.touring === false", timeout=STREAM_TIMEOUT_MS)
+    assert page.js_errors == []

@@ -1,4 +1,4 @@
-"""Goals, the current path, the initial pose and teleoperation."""
+"""Goals, the scripted tour, the current path, the initial pose and teleoperation."""
 
 from fastapi import APIRouter, status
 
@@ -50,6 +50,17 @@ def delete_goal(runtime: RuntimeDep) -> Ok:
     """Cancel the goal and stop the robot."""
     runtime.navigator.take_over()
     runtime.navigator.cancel()
+    return Ok()
+
+
+@router.post("/tour", response_model=Ok, dependencies=[NotReplaying])
+def create_tour(runtime: RuntimeDep) -> Ok:
+    """Simulation only: cancel the goal and drive the world's scripted tour again from its start."""
+    conflict = status.HTTP_409_CONFLICT
+    if not runtime.settings.simulation:
+        raise ApiError(conflict, "not_simulated", "only the simulated robot has a scripted tour")
+    if not runtime.navigator.start_tour():
+        raise ApiError(conflict, "no_tour", f"the world {runtime.settings.world!r} has no tour")
     return Ok()
 
 
