@@ -20,6 +20,7 @@ from collections.abc import Callable
 import numpy as np
 
 from app.core.config import Settings
+from app.core.rate import SlidingRate
 from app.db.rooms import RoomStore
 from app.db.store import Store
 from app.db.zones import ZoneStore
@@ -80,7 +81,7 @@ class Runtime:
         self._grid_cache: tuple[int, OccupancyGrid] | None = None
         self._last_stream = 0.0
         self._published_states = 0
-        self._rate_window: deque[float] = deque(maxlen=64)
+        self._state_rate = SlidingRate()
         self._tasks: list[asyncio.Task] = []
         self._loop: asyncio.AbstractEventLoop | None = None
         self.started_at = time.time()
@@ -137,7 +138,7 @@ class Runtime:
             self.latest = message
             self.replay = message.get("replay") or self.replay
             self.mode, self.mapping = message["mode"], message["mapping"]
-            self._rate_window.append(time.monotonic())
+            self._state_rate.tick(time.monotonic())
             self._publish_state()
             return
         event = {k: v for k, v in message.items() if k not in ("kind", "trace")}
@@ -260,11 +261,8 @@ class Runtime:
             self.supervisor.send("velocity", float(v), float(w))
 
     def state_rate(self) -> float:
-        """Worker states received per second over the recent window."""
-        w = self._rate_window
-        if len(w) < 2 or time.monotonic() - w[-1] > 1.0:
-            return 0.0
-        return (len(w) - 1) / (w[-1] - w[0])
+        """Worker states received per second over the last few seconds."""
+        return self._state_rate.rate(time.monotonic())
 
     def status(self) -> dict:
         latest = self.latest

@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from app.core.config import Settings
+from app.core.rate import SlidingRate
 from app.grabbers.odometry_grabber import OdometryGrabber
 from app.grabbers.odometry_history import OdometryHistory
 from app.grabbers.scan_grabber import ScanGrabber, load_sensor_source
@@ -61,7 +62,6 @@ log = logging.getLogger(__name__)
 WAIT_S = 0.05
 #: The pose (without the map) is checkpointed this often (s).
 POSE_SAVE_S = 0.2
-RATE_SMOOTHING = 0.2
 #: Keep this many poses of the trajectory drawn on the exit PNG.
 TRAJECTORY_KEEP = 20000
 #: A worker that has taken this many steps and published its map reports itself healthy.
@@ -138,7 +138,7 @@ class Worker:
         self.ticks: tuple[int, int] | None = None  # encoder counts of the last step
         self.steps = 0
         self.rate_hz = 0.0
-        self.last_step = None
+        self._step_rate = SlidingRate()
         self.trajectory: list[np.ndarray] = []
         self.map_written = False
         # The map as last restored or handed over: estimators without a map of their own (EKF)
@@ -398,10 +398,8 @@ class Worker:
         self.pose = np.asarray(estimate.pose, float)
         self.steps += 1
         now = time.monotonic()
-        if self.last_step is not None and now > self.last_step:
-            inst = 1.0 / (now - self.last_step)
-            self.rate_hz = inst if not self.rate_hz else self.rate_hz + RATE_SMOOTHING * (inst - self.rate_hz)
-        self.last_step = now
+        self._step_rate.tick(now)
+        self.rate_hz = self._step_rate.rate(now)
         self.trajectory.append(self.pose.copy())
         del self.trajectory[:-TRAJECTORY_KEEP]
         self._publish_state(scan, self._corrected(estimate))
