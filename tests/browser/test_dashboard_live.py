@@ -256,7 +256,8 @@ def test_places_and_a_screenshot_of_the_dashboard_driving(dashboard, homebot_ser
 
 
 def test_phone_sized_screen_via_the_printed_link(browser, homebot_server, artifacts):
-    """The link the server prints (?token=...) signs in; the layout fits a phone; the token leaves the URL."""
+    """The link the server prints (?token=...) signs in; the layout fits a phone, its menu sheet leaves
+    most of the map in view; the token leaves the URL."""
     context = browser.new_context(viewport={"width": 390, "height": 844}, device_scale_factor=2,
                                   is_mobile=True, has_touch=True)
     page = context.new_page()
@@ -271,8 +272,14 @@ def test_phone_sized_screen_via_the_printed_link(browser, homebot_server, artifa
             "document.getElementById('sidebar').getBoundingClientRect().top >= window.innerHeight")
         page.click("#menu-toggle")
         page.wait_for_timeout(400)
-        top = page.evaluate("document.getElementById('sidebar').getBoundingClientRect().top")
-        assert top < 844 * 0.5, "the controls slide up over the map"
+        sheet = page.evaluate("""() => { const r = document.getElementById('sidebar').getBoundingClientRect();
+                                         const s = document.getElementById('sidebar');
+                                         return { top: r.top, bottom: r.bottom,
+                                                  scrolls: s.scrollHeight > s.clientHeight }; }""")
+        assert sheet["bottom"] == pytest.approx(844, abs=1) and sheet["top"] < 844 * 0.7, "the sheet is open"
+        assert sheet["scrolls"], "the rest of the controls is a scroll away"
+        visible = (sheet["top"] - canvas["y"]) / canvas["height"]
+        assert visible >= 0.5, f"the open sheet leaves only {visible:.0%} of the map in view"
         page.click("#menu-toggle")
         page.wait_for_timeout(400)
         page.screenshot(path=str(artifacts / "dashboard-phone.png"))
