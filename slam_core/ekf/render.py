@@ -12,6 +12,8 @@ from slam_core.io.caption import draw_caption
 #: Ellipses are drawn at this many standard deviations (chi-square 2 dof: 3 sigma ~ 98.9 %).
 ELLIPSE_SIGMAS = 3.0
 ELLIPSE_POINTS = 36
+#: With a trajectory, the picture shows what lies at most this far (m) beyond it.
+REACH_M = 5.0
 
 
 def ellipse_outline(mean, cov, sigmas: float = ELLIPSE_SIGMAS, n: int = ELLIPSE_POINTS) -> np.ndarray:
@@ -22,24 +24,35 @@ def ellipse_outline(mean, cov, sigmas: float = ELLIPSE_SIGMAS, n: int = ELLIPSE_
     return np.asarray(mean, float) + circle @ vecs.T
 
 
+def drawn_extent(trajectory, others, margin: float, reach: float = REACH_M) -> tuple[np.ndarray, np.ndarray]:
+    """``(lo, hi)`` corners of the picture: all points ``(m, 2)`` plus ``margin``, but with a
+    trajectory ``(n, 2)`` no more than ``reach`` beyond it, so far landmarks do not shrink the rest."""
+    trajectory = np.asarray(trajectory, float).reshape(-1, 2)
+    everything = np.vstack([trajectory, np.asarray(others, float).reshape(-1, 2)])
+    if not len(everything):
+        everything = np.zeros((1, 2))
+    lo, hi = everything.min(axis=0) - margin, everything.max(axis=0) + margin
+    if len(trajectory):
+        lo = np.maximum(lo, trajectory.min(axis=0) - reach)
+        hi = np.minimum(hi, trajectory.max(axis=0) + reach)
+    return lo, hi
+
+
 def save_landmark_png(path, landmarks, covariances, trajectory=None, points=None,
                       resolution: float = 0.05, margin: float = 2.0, caption: str | None = None,
                       segments=None) -> Path:
     """Draw landmarks ``(k, 2)`` with their ellipses, a trajectory ``(n, 2+)``, grey points ``(p, 2)``
-    and wall segments ``(l, 2, 2)`` (end points)."""
+    and wall segments ``(l, 2, 2)`` (end points), within :func:`drawn_extent`."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     landmarks = np.asarray(landmarks, float).reshape(-1, 2)
     parts = [landmarks]
-    if trajectory is not None:
-        parts.append(np.asarray(trajectory, float)[:, :2])
     if points is not None:
         parts.append(np.asarray(points, float).reshape(-1, 2))
     segments = np.zeros((0, 2, 2)) if segments is None else np.asarray(segments, float).reshape(-1, 2, 2)
     parts.append(segments.reshape(-1, 2))
-    everything = np.vstack(parts) if sum(len(p) for p in parts) else np.zeros((1, 2))
-    lo = everything.min(axis=0) - margin
-    hi = everything.max(axis=0) + margin
+    path_xy = np.zeros((0, 2)) if trajectory is None else np.asarray(trajectory, float)[:, :2]
+    lo, hi = drawn_extent(path_xy, np.vstack(parts), margin)
     width, height = (np.ceil((hi - lo) / resolution).astype(int) + 1).tolist()
     img = Image.new("RGB", (width, height), (255, 255, 255))
     draw = ImageDraw.Draw(img)
