@@ -10,7 +10,7 @@ import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-from app.navigation.planning import plan_path
+from app.navigation.planning import KNOWN_ONLY, plan_path
 from slam_core.control.pure_pursuit import PurePursuit, PursuitConfig
 from slam_core.planning.costmap import CostmapConfig, build_costmap
 from slam_core.planning.errors import PlanningError
@@ -19,6 +19,7 @@ from slam_core.planning.zones import (
     NoGoZone,
     Restrictions,
     VirtualWall,
+    exit_point,
     restricted_costmap,
 )
 from slam_core.sim.ground_truth import ground_truth_map
@@ -178,6 +179,23 @@ def test_a_robot_inside_a_zone_leaves_by_the_nearest_way_out():
     # The nearest way out of the zone (grown by the robot's radius) is west, through x = 2 - radius.
     assert way_out[0] < 2.0 - RADIUS + RES and abs(way_out[1] - 2.0) < 2 * RES
     assert _clearance_to_restrictions(_dense(path[1:]), Restrictions((zone,))) >= RADIUS - 2 * RES
+
+
+def test_the_way_out_of_a_zone_never_leads_through_a_real_wall():
+    # Two rooms split by a wall at x = 4 (a gap at its top); the zone ends 0.1 m short of that wall.
+    world = parse_world("start 1 1 0\npolygon 0 0 8 0 8 4 0 4\nwall 4 0 4 3.2", source="two rooms")
+    grid = ground_truth_map(world, RES)
+    zone = NoGoZone(((2.5, 0.0), (3.9, 0.0), (3.9, 2.5), (2.5, 2.5)))
+    start = np.array([3.6, 1.5, 0.0])
+    costmap = build_costmap(grid, KNOWN_ONLY)
+    restricted = restricted_costmap(costmap, Restrictions((zone,)), RADIUS)
+    # In a straight line the nearest free cell lies in the other room, behind the wall ...
+    assert exit_point(restricted, start)[0] > 4.0
+    # ... but the robot leaves on its own side: north, above the zone grown by its radius.
+    path = plan_path(grid, start, (1.0, 3.5), Restrictions((zone,)))
+    way_out = path[1]
+    assert way_out[0] < 4.0 - RADIUS and way_out[1] > 2.5 + RADIUS - RES, way_out
+    assert np.all(_dense(path)[:, 0] < 4.0)  # no part of the drive crosses the wall
 
 
 def test_a_zone_or_a_virtual_wall_across_the_direct_route_forces_a_detour():

@@ -37,8 +37,9 @@ def plan_path(grid: OccupancyGrid, pose: np.ndarray, goal, restrictions: Restric
     way_out = None
     if restrictions:
         check_goal(restrictions, goal)
+        unrestricted = costmap
         costmap = restricted_costmap(costmap, restrictions, config.robot_radius)
-        way_out = exit_point(costmap, start)
+        way_out = exit_point(costmap, start, unrestricted)
     path = planner.plan_path(costmap, start if way_out is None else way_out, np.asarray(goal, float))
     waypoints = np.asarray(path.waypoints, float)
     if not path.snapped:  # the search ends at the goal cell's centre: end at the goal itself

@@ -14,6 +14,7 @@ whole body stays out: those cells become lethal. Inside the restricted area the 
 
 from __future__ import annotations
 
+from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
@@ -145,14 +146,41 @@ def check_goal(restrictions: Restrictions, goal_xy) -> None:
             raise GoalInNoGoZone(f"goal ({goal_xy[0]:.2f}, {goal_xy[1]:.2f}) is inside no-go zone {i + 1}")
 
 
-def exit_point(costmap: Costmap, start_xy) -> np.ndarray | None:
-    """Where a robot at ``start_xy`` inside the lethal area leaves it: the nearest passable cell
-    (``None`` when the start is passable, or outside the map)."""
+def exit_point(costmap: Costmap, start_xy, unrestricted: Costmap | None = None) -> np.ndarray | None:
+    """Where a robot at ``start_xy`` inside the lethal area leaves it: the passable cell it reaches
+    by the shortest way (``None`` when the start is passable, or outside the map).
+
+    With ``unrestricted`` (the same costmap before zones and walls were added) the way out goes
+    only through cells the map itself lets the robot cross, so it never leads through a real
+    wall; without it, the nearest passable cell in a straight line.
+    """
     start = costmap.world_to_cell(np.asarray(start_xy, float)[:2])
     if not costmap.contains_cell(*start) or np.isfinite(costmap.weights[start[1], start[0]]):
         return None
     passable = np.isfinite(costmap.weights)
     if not passable.any():
         return None
+    if unrestricted is not None:
+        cell = _nearest_reachable(passable, np.isfinite(unrestricted.weights), start)
+        if cell is not None:
+            return costmap.cell_to_world(np.array(cell))
     _, (iy, ix) = ndimage.distance_transform_edt(~passable, return_indices=True)
     return costmap.cell_to_world(np.array([ix[start[1], start[0]], iy[start[1], start[0]]]))
+
+
+def _nearest_reachable(goal: np.ndarray, walkable: np.ndarray, start) -> tuple[int, int] | None:
+    """The first ``goal`` cell met by a breadth-first search from ``start`` (4-connected) that
+    steps only on ``walkable`` cells (the start itself may lie anywhere); ``(ix, iy)`` or ``None``."""
+    height, width = goal.shape
+    seen = np.zeros(goal.shape, dtype=bool)
+    seen[start[1], start[0]] = True
+    frontier = deque([(int(start[0]), int(start[1]))])
+    while frontier:
+        ix, iy = frontier.popleft()
+        for nx, ny in ((ix + 1, iy), (ix - 1, iy), (ix, iy + 1), (ix, iy - 1)):
+            if 0 <= nx < width and 0 <= ny < height and not seen[ny, nx] and walkable[ny, nx]:
+                if goal[ny, nx]:
+                    return nx, ny
+                seen[ny, nx] = True
+                frontier.append((nx, ny))
+    return None
