@@ -45,7 +45,23 @@ def drawable(text: str, font=None) -> str:
     return "".join(out)
 
 
+def wrapped(text: str, width: float, font=None) -> list[str]:
+    """``text`` broken at spaces into lines no wider than ``width`` pixels (a word longer than
+    that stands on a line of its own)."""
+    font = font or caption_font()
+    lines: list[str] = []
+    for word in text.split():
+        if lines and font.getlength(f"{lines[-1]} {word}") <= width:
+            lines[-1] = f"{lines[-1]} {word}"
+        else:
+            lines.append(word)
+    return lines
+
+
 def draw_caption(draw: ImageDraw.ImageDraw, xy: tuple[int, int], text: str, fill) -> None:
-    """Draw one caption line at ``xy`` (top left) with a font that shows its letters."""
+    """Draw a caption at ``xy`` (top left) with a font that shows its letters, wrapped to the
+    picture's width."""
     font = caption_font()
-    draw.text(xy, drawable(text, font), fill=fill, font=font)
+    width = draw.im.size[0] - xy[0] - 4
+    for row, line in enumerate(wrapped(drawable(text, font), width, font)):
+        draw.text((xy[0], xy[1] + row * (CAPTION_SIZE + 3)), line, fill=fill, font=font)
