@@ -16,6 +16,16 @@ ROOT = Path(__file__).resolve().parent.parent
 START_TIMEOUT_S = 180.0  # a fresh clone compiles the numba kernels once
 
 
+def until(condition, timeout: float, what: str):
+    """Poll ``condition()`` until it returns something truthy (returned), or fail naming ``what``."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if value := condition():
+            return value
+        time.sleep(0.3)
+    raise AssertionError(f"timed out waiting for {what}")
+
+
 def free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))

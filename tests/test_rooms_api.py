@@ -8,7 +8,7 @@ import time
 import pytest
 
 from app.db.rooms import RoomStore
-from tests.live_server import LiveServer
+from tests.live_server import LiveServer, until
 
 #: The flat's hall (slam_core/sim/worlds/flat.txt), where the robot starts.
 HALL = (0.0, 3.0, 6.5, 4.5)
@@ -17,15 +17,6 @@ HALL = (0.0, 3.0, 6.5, 4.5)
 def _inside(point, box, margin=0.0) -> bool:
     x0, y0, x1, y1 = box
     return x0 - margin <= point[0] <= x1 + margin and y0 - margin <= point[1] <= y1 + margin
-
-
-def _wait(condition, timeout: float, what: str):
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if value := condition():
-            return value
-        time.sleep(0.3)
-    raise AssertionError(f"timed out waiting for {what}")
 
 
 @pytest.fixture(scope="module")
@@ -43,7 +34,7 @@ def server(data_dir):
 def _drive(server: LiveServer, http, x: float, y: float) -> None:
     answer = http.post("/api/goal", json={"x": x, "y": y})
     assert answer.status_code == 202, answer.text
-    _wait(lambda: http.get("/api/path").json()["state"] == "arrived", 60, f"arrival at ({x}, {y})")
+    until(lambda: http.get("/api/path").json()["state"] == "arrived", 60, f"arrival at ({x}, {y})")
 
 
 def test_rooms_are_found_and_the_status_names_the_robots_room(server):
@@ -51,8 +42,8 @@ def test_rooms_are_found_and_the_status_names_the_robots_room(server):
         for x in (2.2, 3.4, 4.6):  # map the hall on the way east
             _drive(server, http, x, 3.75)
         time.sleep(6)  # the rooms are segmented every few seconds
-        rooms = _wait(lambda: http.get("/api/rooms").json(), 30, "rooms on the live map")
-        here = _wait(lambda: http.get("/api/status").json()["room"], 10, "a room in the status")
+        rooms = until(lambda: http.get("/api/rooms").json(), 30, "rooms on the live map")
+        here = until(lambda: http.get("/api/status").json()["room"], 10, "a room in the status")
     assert here in {r["name"] for r in rooms}
     hall = next(r for r in rooms if r["name"] == here)
     assert hall["area"] > 4.0 and _inside(hall["centroid"], HALL, 0.3)
@@ -65,7 +56,7 @@ def test_rename_split_go_and_merge(server):
         hall = next(r for r in http.get("/api/rooms").json() if r["name"] == here)
         renamed = http.patch(f"/api/rooms/{hall['id']}", json={"name": "Hall"})
         assert renamed.status_code == 200 and "Hall" in {r["name"] for r in renamed.json()}
-        _wait(lambda: http.get("/api/status").json()["room"] == "Hall", 5, "the new name in the status")
+        until(lambda: http.get("/api/status").json()["room"] == "Hall", 5, "the new name in the status")
         # Split along x = 3 drawn from south to north: the part west of it (left of a->b) is new.
         split = http.post(f"/api/rooms/{hall['id']}/split", json={"a": [3.0, 3.0], "b": [3.0, 4.5]})
         assert split.status_code == 200, split.text
@@ -77,7 +68,7 @@ def test_rename_split_go_and_merge(server):
         assert http.get("/api/status").json()["room"] == "Hall"  # the robot (x = 4.6) is east of the line
         go = http.post(f"/api/rooms/{west[0]['id']}/go")
         assert go.status_code == 202, go.text
-        _wait(lambda: http.get("/api/path").json()["state"] == "arrived", 60, "arrival in the west part")
+        until(lambda: http.get("/api/path").json()["state"] == "arrived", 60, "arrival in the west part")
         true = server.status()["true_pose"]
         assert true[0] < 3.0
         assert http.get("/api/status").json()["room"] == west[0]["name"]
@@ -115,5 +106,5 @@ def test_rooms_are_stored_with_a_saved_map_and_kept_across_a_restart(server, dat
     server.stop()
     server.start()
     with server.client() as http:
-        again = _wait(lambda: http.get("/api/rooms").json(), 30, "rooms after the restart")
+        again = until(lambda: http.get("/api/rooms").json(), 30, "rooms after the restart")
     assert "Hall" in {r["name"] for r in again} and names & {r["name"] for r in again}

@@ -11,16 +11,7 @@ import pytest
 
 from app.db.zones import ZoneStore
 from slam_core.planning.zones import NoGoZone
-from tests.live_server import LiveServer
-
-
-def _wait(condition, timeout: float, what: str):
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if value := condition():
-            return value
-        time.sleep(0.3)
-    raise AssertionError(f"timed out waiting for {what}")
+from tests.live_server import LiveServer, until
 
 
 @pytest.fixture(scope="module")
@@ -36,7 +27,7 @@ def server(data_dir):
 
 
 def _arrive(http) -> None:
-    _wait(lambda: http.get("/api/path").json()["state"] in ("arrived", "failed"), 60, "the end of the drive")
+    until(lambda: http.get("/api/path").json()["state"] in ("arrived", "failed"), 60, "the end of the drive")
 
 
 def test_a_zone_refuses_goals_inside_and_plans_keep_out(server):
