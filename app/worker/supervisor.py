@@ -143,14 +143,6 @@ class WorkerSupervisor:
         with contextlib.suppress(FileNotFoundError):
             self.shared_map.unlink()
 
-    def kill(self) -> int | None:
-        """SIGKILL the worker (a crash, for tests and the API); returns the pid killed."""
-        proc = self._process
-        if proc is None or not proc.is_alive():
-            return None
-        os.kill(proc.pid, signal.SIGKILL)
-        return proc.pid
-
     # commands
     def send(self, *command) -> bool:
         """Queue a command for the worker; False when it cannot take it now."""

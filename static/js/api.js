@@ -4,31 +4,17 @@
 import { httpUrl } from "./urls.js";
 
 export class ApiError extends Error {
-  constructor(status, message, body = null) {
+  constructor(status, message) {
     super(message);
     this.status = status;
-    this.body = body;
-  }
-
-  // True for a validation error that names `field` (FastAPI's [{loc: ["body", field], ...}]).
-  concerns(field) {
-    const detail = this.body?.detail;
-    return Array.isArray(detail) && detail.some((d) => (d.loc ?? []).includes(field));
   }
 }
 
-// FastAPI's error body: {"detail": "reason"} or {"detail": [{loc, msg, type}, ...]}.
+// The server's error body is {"detail": "what went wrong", "reason": "machine_word"}
+// (app/api/errors.py); anything else (a proxy's error page) is reported by its status.
 export function errorMessage(status, body) {
   const detail = body?.detail;
-  if (typeof detail === "string") return detail;
-  if (detail && typeof detail === "object" && !Array.isArray(detail)) {
-    return String(detail.message ?? detail.reason ?? JSON.stringify(detail)); // e.g. the planner's reason
-  }
-  if (Array.isArray(detail)) {
-    const where = (d) => (d.loc ?? []).filter((p) => p !== "body").join(".") || "input";
-    return detail.map((d) => `${where(d)}: ${String(d.msg).replace(/^Value error, /, "")}`).join("; ");
-  }
-  return `HTTP ${status}`;
+  return typeof detail === "string" ? detail : `HTTP ${status}`;
 }
 
 export class Api {
@@ -59,7 +45,7 @@ export class Api {
     }
     if (!response.ok) {
       if (response.status === 401 && path !== "login") this.onUnauthorized?.();
-      throw new ApiError(response.status, `${errorMessage(response.status, data)} (${method} api/${path})`, data);
+      throw new ApiError(response.status, `${errorMessage(response.status, data)} (${method} api/${path})`);
     }
     return data;
   }
@@ -73,17 +59,9 @@ export class Api {
   status() {
     return this.request("GET", "status");
   }
-  // A goal in metres; `yaw` (the heading dragged on the map) is sent when given. A server whose goals
-  // carry no heading rejects the field: the goal is then sent without it and `headingIgnored` is set.
-  async goal(x, y, yaw = null) {
-    if (yaw === null) return this.request("POST", "goal", { x, y });
-    try {
-      return await this.request("POST", "goal", { x, y, yaw });
-    } catch (err) {
-      if (!(err instanceof ApiError && err.status === 422 && err.concerns("yaw"))) throw err;
-      const result = await this.request("POST", "goal", { x, y });
-      return { ...result, headingIgnored: true };
-    }
+  // A goal in metres; `yaw` (the heading dragged on the map) is sent when given.
+  goal(x, y, yaw = null) {
+    return this.request("POST", "goal", yaw === null ? { x, y } : { x, y, yaw });
   }
   cancelGoal() {
     return this.request("DELETE", "goal");

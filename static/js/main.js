@@ -273,10 +273,9 @@ class Dashboard {
   async pick(tool, x, y, yaw) {
     try {
       if (tool === "goal") {
-        const result = await this.api.goal(x, y, yaw);
-        this.state.goalHeading = result?.headingIgnored || yaw === null ? null : { x, y, yaw };
-        const note = result?.headingIgnored ? " (this server ignores headings)" : "";
-        this.toast(`Goal (${x.toFixed(2)}, ${y.toFixed(2)})${note}`);
+        await this.api.goal(x, y, yaw);
+        this.state.goalHeading = yaw === null ? null : { x, y, yaw };
+        this.toast(`Goal (${x.toFixed(2)}, ${y.toFixed(2)})`);
       } else if (tool === "pose") {
         const heading = yaw ?? this.state.pose?.yaw ?? 0;
         await this.api.setPose(x, y, heading);
