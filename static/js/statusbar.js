@@ -19,6 +19,7 @@ export class StatusBar {
     this.loc = root.getElementById("st-loc");
     this.rate = root.getElementById("st-rate");
     this.nav = root.getElementById("st-nav");
+    this.replay = root.getElementById("st-replay");
     this.error = root.getElementById("st-error");
     this.details = root.getElementById("details");
     this.banner = root.getElementById("offline-banner");
@@ -58,12 +59,22 @@ export class StatusBar {
       ? "The scripted tour is running; a goal, driving by hand or Cancel ends it."
       : `navigation${reason ? `: ${reason}` : ""}`;
 
+    this.renderReplay(s?.replay);
+
     const message = state.lastError?.message ?? worker?.last_error ?? null;
     this.error.hidden = !message;
     this.error.textContent = message ? `⚠ ${message}` : "";
     this.error.title = message ? `${message} (click to dismiss)` : "";
 
     this.renderDetails(s, worker);
+  }
+
+  // A log played instead of a robot (homebot serve --replay): which log, how far, which phase.
+  renderReplay(replay) {
+    this.replay.hidden = !replay;
+    if (!replay) return;
+    const progress = replay.phase === "playing" ? ` ${replay.played}/${replay.records}` : ` ${replay.phase}`;
+    setPill(this.replay, `replay ${replay.log}${progress}`, replay.phase === "finished" ? "good" : "");
   }
 
   renderDetails(s, worker) {
@@ -75,7 +86,8 @@ export class StatusBar {
       ["room", s?.room ?? "—"],
       ["path", s?.nav?.state === "driving" && s?.path_length ? `${s.path_length.toFixed(2)} m` : "—"],
       ["worker", worker ? `pid ${worker.pid ?? "—"}, ${worker.steps ?? 0} steps, ${worker.restarts ?? 0} restarts` : "—"],
-      ["source", s ? (s.sim ? "simulation" : "robot") : "—"],
+      ["source", s ? (s.replay ? `replay of ${s.replay.log}` : s.sim ? "simulation" : "robot") : "—"],
+      ["loops", s?.loops ? `${s.loops.closures} closed, ${s.loops.edges} edges, ${s.loops.solves} solves` : "—"],
     ];
     this.details.replaceChildren(
       ...rows.flatMap(([k, v]) => {
