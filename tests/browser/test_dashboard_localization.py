@@ -1,0 +1,64 @@
+"""Localization mode from the dashboard, in Debian's chromium against a real server (simulated flat).
+
+The robot maps the hall and the kitchen, the person saves the map and loads it from the Maps
+panel, then the robot drives back through the flat while the page is watched: the mode and
+"localized" pills, and the pose the page draws against the simulator's true pose.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+from tests.live_server import until
+
+DRIVE_TIMEOUT_S = 120.0
+STREAM_TIMEOUT_MS = 30_000
+KITCHEN, HALL = (3.2, 1.8), (1.0, 3.75)  # the flat world: the hall is where the robot starts
+#: The page's pose against the simulator's, sampled while driving (the page's pose is up to one
+#: stream period older than the true pose, 0.4 m/s x 1/15 s).
+POSE_BOUND_M = 0.3
+
+
+def drive(server, goal) -> dict:
+    r = server.api("POST", "goal", json={"x": goal[0], "y": goal[1], "explore": True})
+    assert r.status_code == 202, r.text
+    return until(lambda: (s := server.api("GET", "status").json())["nav"]["state"] != "driving" and s,
+                 DRIVE_TIMEOUT_S, f"the drive to {goal}")
+
+
+def test_a_saved_map_loaded_from_the_dashboard_keeps_the_robot_localized(page, homebot_server, artifacts):
+    server = homebot_server
+    assert drive(server, KITCHEN)["nav"]["state"] == "arrived"
+    page.goto(f"{server.url}?token={server.token}")
+    page.wait_for_function("window.homebot?.state.online && window.homebot.state.map.ready",
+                           timeout=STREAM_TIMEOUT_MS)
+
+    page.fill("#map-name", "home")
+    page.click("#map-form button[type=submit]")
+    page.wait_for_selector("#maps li[data-name=home]")
+    page.click("#maps li[data-name=home] button.primary")  # Load: localize on this map
+    page.wait_for_function("document.getElementById('st-mode').textContent.startsWith('Localization')",
+                           timeout=STREAM_TIMEOUT_MS)
+    page.wait_for_function("document.getElementById('st-loc').textContent === 'localized'",
+                           timeout=STREAM_TIMEOUT_MS)
+
+    r = server.api("POST", "goal", json={"x": HALL[0], "y": HALL[1]})
+    assert r.status_code == 202, r.text
+    gaps, pills = [], set()
+    deadline = time.monotonic() + DRIVE_TIMEOUT_S
+    while time.monotonic() < deadline:
+        status = server.api("GET", "status").json()
+        shown = page.evaluate("() => window.homebot.state.pose")
+        true = status["true_pose"]
+        gaps.append(math.hypot(shown["x"] - true[0], shown["y"] - true[1]))
+        pills.add(page.locator("#st-loc").inner_text())
+        if status["nav"]["state"] != "driving":
+            break
+        time.sleep(0.25)
+    assert status["mode"] == "localization" and status["nav"]["state"] == "arrived", status["nav"]
+    assert pills == {"localized"}, pills
+    assert len(gaps) > 10 and max(gaps) < POSE_BOUND_M, max(gaps)
+    assert math.hypot(true[0] - HALL[0], true[1] - HALL[1]) < 0.5
+    page.screenshot(path=str(artifacts / "dashboard-localization.png"))
+    assert page.js_errors == []
