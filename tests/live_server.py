@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import asyncio
 import os
 import signal
 import socket
@@ -11,6 +12,7 @@ import time
 from pathlib import Path
 
 import httpx
+import websockets
 
 ROOT = Path(__file__).resolve().parent.parent
 START_TIMEOUT_S = 180.0  # a fresh clone compiles the numba kernels once
@@ -102,3 +104,31 @@ class LiveServer:
         self.output = self.proc.stdout.read()
         code, self.proc = self.proc.returncode, None
         return code
+
+
+def launch_replay(data_dir: Path, log: Path, slam_config: Path, token: str, *options: str,
+                  stdout=subprocess.PIPE) -> tuple[subprocess.Popen, int]:
+    """``homebot serve --replay LOG --speed max --config SLAM_CONFIG [options]`` on a free port;
+    returns the process (text output on ``stdout``) and its port."""
+    port = free_port()
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "HOMEBOT_TOKEN": token}
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "app.cli", "serve", "--port", str(port), "--data", str(data_dir),
+         "--replay", str(log), "--speed", "max", "--config", str(slam_config), *options],
+        cwd=ROOT, env=env, stdout=stdout, stderr=subprocess.STDOUT, text=True)
+    return proc, port
+
+
+async def connect_stream(port: int, token: str, proc: subprocess.Popen):
+    """The server's websocket stream, connected as soon as the server accepts (``proc`` must not
+    exit first)."""
+    deadline = time.monotonic() + START_TIMEOUT_S
+    while True:
+        try:
+            return await websockets.connect(f"ws://127.0.0.1:{port}/ws?token={token}", max_size=None)
+        except OSError:
+            if proc.poll() is not None:
+                raise RuntimeError(f"homebot serve exited: {proc.stdout.read()}") from None
+            if time.monotonic() > deadline:
+                raise
+            await asyncio.sleep(0.2)

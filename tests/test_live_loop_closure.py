@@ -10,9 +10,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import json
-import os
 import subprocess
-import sys
 import time
 from dataclasses import dataclass, replace
 
@@ -31,7 +29,7 @@ from slam_core.sim.record import record_tour
 from slam_core.sim.robot import WheelNoise
 from slam_core.sim.simulator import SimConfig
 from slam_core.sim.world import load_world
-from tests.live_server import ROOT, START_TIMEOUT_S, free_port
+from tests.live_server import connect_stream, launch_replay
 
 TOKEN = "loop-closure-test-token-0123-abcdefgh"
 #: The map is looked at again this long after a closure (the map pump runs at >= 1 Hz).
@@ -67,17 +65,7 @@ def snapshot(canvas: MapCanvas) -> Snapshot:
 
 
 async def _watch(port: int, proc: subprocess.Popen) -> list[Closure]:
-    deadline = time.monotonic() + START_TIMEOUT_S
-    while True:
-        try:
-            ws = await websockets.connect(f"ws://127.0.0.1:{port}/ws?token={TOKEN}", max_size=None)
-            break
-        except OSError:
-            if proc.poll() is not None:
-                raise RuntimeError(f"homebot serve exited: {proc.stdout.read()}") from None
-            if time.monotonic() > deadline:
-                raise
-            await asyncio.sleep(0.2)
+    ws = await connect_stream(port, TOKEN, proc)
     canvas, closures, last_pose, due = MapCanvas(), [], None, []
     async with ws:
         with contextlib.suppress(websockets.ConnectionClosed):
@@ -124,12 +112,7 @@ def drifting(tmp_path_factory):
     rec = record_tour(load_world("flat"), root / "rec", seed=1, config=SimConfig(noise=noise))
     config_file = root / "odometry-only.json"
     config_file.write_text(json.dumps(odometry_only(RBPFConfig()).to_dict()))
-    port = free_port()
-    env = {**os.environ, "PYTHONPATH": str(ROOT), "HOMEBOT_TOKEN": TOKEN}
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "app.cli", "serve", "--port", str(port), "--data", str(root / "data"),
-         "--replay", str(rec.log), "--speed", "max", "--exit-at-end", "--config", str(config_file)],
-        cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    proc, port = launch_replay(root / "data", rec.log, config_file, TOKEN, "--exit-at-end")
     try:
         closures = asyncio.run(_watch(port, proc))
         output, _ = proc.communicate(timeout=600)

@@ -9,10 +9,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import json
-import os
 import subprocess
-import sys
-import time
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -29,7 +26,7 @@ from slam_core.io.trajectory import Trajectory
 from slam_core.pipelines.log_slam import slam_from_log
 from slam_core.rbpf import RBPFConfig
 from tests.bundled import log_slice
-from tests.live_server import ROOT, START_TIMEOUT_S, free_port
+from tests.live_server import connect_stream, launch_replay
 
 SCANS = 250
 TOKEN = "replay-test-token-0123456789-abcdef"
@@ -50,17 +47,7 @@ class Replay:
 async def _watch(port: int, proc: subprocess.Popen) -> tuple[list[dict], dict[str, httpx.Response]]:
     """Every text message of the stream until the server closes it; goal and teleop tried once
     while the log plays."""
-    deadline = time.monotonic() + START_TIMEOUT_S
-    while True:
-        try:
-            ws = await websockets.connect(f"ws://127.0.0.1:{port}/ws?token={TOKEN}", max_size=None)
-            break
-        except OSError:
-            if proc.poll() is not None:
-                raise RuntimeError(f"homebot serve exited: {proc.stdout.read()}") from None
-            if time.monotonic() > deadline:
-                raise
-            await asyncio.sleep(0.2)
+    ws = await connect_stream(port, TOKEN, proc)
     messages, refused = [], {}
     headers = {"Authorization": f"Bearer {TOKEN}"}
     async with ws, httpx.AsyncClient(base_url=f"http://127.0.0.1:{port}", headers=headers) as http:
@@ -84,12 +71,7 @@ def replay(tmp_path_factory) -> Replay:
     config = replace(RBPFConfig(), particles=8)
     config_file = root / "slam.json"
     config_file.write_text(json.dumps(config.to_dict()))
-    port = free_port()
-    env = {**os.environ, "PYTHONPATH": str(ROOT), "HOMEBOT_TOKEN": TOKEN}
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "app.cli", "serve", "--port", str(port), "--data", str(root / "data"),
-         "--replay", str(log), "--speed", "max", "--exit-at-end", "--config", str(config_file)],
-        cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    proc, port = launch_replay(root / "data", log, config_file, TOKEN, "--exit-at-end")
     try:
         messages, refused = asyncio.run(_watch(port, proc))
         output, _ = proc.communicate(timeout=RUN_TIMEOUT_S)

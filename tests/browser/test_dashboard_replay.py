@@ -7,9 +7,7 @@ At the end the map the browser holds (its decoded tiles) is compared cell by cel
 from __future__ import annotations
 
 import json
-import os
 import subprocess
-import sys
 from dataclasses import replace
 
 import httpx
@@ -20,7 +18,7 @@ from app.worker.shared_map import UNKNOWN, grid_cells
 from slam_core.pipelines.log_slam import slam_from_log
 from slam_core.rbpf import RBPFConfig
 from tests.bundled import log_slice
-from tests.live_server import ROOT, free_port, until
+from tests.live_server import launch_replay, until
 
 SCANS = 250
 TOKEN = "browser-replay-token-0123456789-abcdef"
@@ -45,13 +43,8 @@ def replay_server(tmp_path_factory):
     config = replace(RBPFConfig(), particles=8)
     config_file = root / "slam.json"
     config_file.write_text(json.dumps(config.to_dict()))
-    port = free_port()
-    env = {**os.environ, "PYTHONPATH": str(ROOT), "HOMEBOT_TOKEN": TOKEN}
-    output = open(root / "serve.log", "wb")  # noqa: SIM115 - closed below, after the server stops
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "app.cli", "serve", "--port", str(port), "--data", str(root / "data"),
-         "--replay", str(log), "--speed", "max", "--config", str(config_file)],
-        cwd=ROOT, env=env, stdout=output, stderr=subprocess.STDOUT)
+    output = open(root / "serve.log", "w")  # noqa: SIM115 - closed below, after the server stops
+    proc, port = launch_replay(root / "data", log, config_file, TOKEN, stdout=output)
     try:
         yield {"url": f"http://127.0.0.1:{port}/", "log": log, "config": config, "proc": proc}
     finally:
