@@ -9,12 +9,14 @@ import sys
 from pathlib import Path
 
 from app.cli.progress import count_bar
+from app.db.names import check_name
 from slam_core.datasets import CREDIT, is_bundled, resolve_log
 from slam_core.io.carmen import count_laser_lines
 from slam_core.io.render import save_png
 from slam_core.io.ros_map import save_map
 from slam_core.pipelines.log_slam import slam_from_log
 from slam_core.rbpf import RBPFConfig
+from slam_core.session import SUFFIX, load_session, save_session
 
 
 def register(sub) -> None:
@@ -36,11 +38,17 @@ def register(sub) -> None:
                         "log's laser and odometry poses)")
     p.add_argument("--no-loop-closure", action="store_true",
                    help="skip the back end: write the best particle's own map and trajectory")
+    p.add_argument("--save-session", metavar="NAME",
+                   help=f"also save the mapping session as OUT/NAME{SUFFIX}, to be continued later")
+    p.add_argument("--resume", type=Path, metavar="SESSION",
+                   help=f"continue a saved session (a {SUFFIX} file) with this log, which must start "
+                        "where the session ended; its config is used unless --config is given")
     p.set_defaults(run=run)
 
 
-def effective_config(args) -> RBPFConfig:
-    config = RBPFConfig()
+def effective_config(args, base: RBPFConfig | None = None) -> RBPFConfig:
+    """``base`` (a resumed session's) or the defaults, then --config, then the options given."""
+    config = base or RBPFConfig()
     if args.config is not None:
         config = RBPFConfig.from_dict(json.loads(args.config.read_text()))
     overrides = {"particles": args.particles, "linear_update": args.linear_update,
@@ -52,14 +60,16 @@ def effective_config(args) -> RBPFConfig:
 
 def run(args) -> int:
     log = resolve_log(args.log)
-    config = effective_config(args)
+    resume = load_session(args.resume) if args.resume is not None else None
+    config = effective_config(args, resume.config if resume is not None else None)
+    name = None if args.save_session is None else check_name(args.save_session, "session name")
     try:
         total = count_laser_lines(log)
     except (OSError, EOFError):
         total = None  # an unreadable log: the reader below reports the file and line
     with count_bar(f"slam {log.name}", total, "scan") as tick:
         result = slam_from_log(log, config, seed=args.seed, on_scan=lambda: tick(1),
-                               laser_mount=args.laser_mount)
+                               laser_mount=args.laser_mount, resume=resume)
     args.out.mkdir(parents=True, exist_ok=True)
     grid = result.grid
     pgm, yml = save_map(grid, args.out / "map")
@@ -68,6 +78,9 @@ def run(args) -> int:
     traj = result.trajectory.save(args.out / "trajectory.txt")
     particle = result.particle_trajectory.save(args.out / "particle_trajectory.txt")
     (args.out / "config.json").write_text(json.dumps(config.to_dict(), indent=2) + "\n")
+    if name is not None:
+        session = save_session(result.session, args.out / f"{name}{SUFFIX}")
+        print(f"saved the session ({len(result.session.scans)} updates) as {session}")
     stats = {
         "log": str(log),
         "seed": args.seed,
@@ -83,6 +96,11 @@ def run(args) -> int:
         **(result.loop_closure.stats() if result.loop_closure else {}),
         "warnings": result.warnings,
     }
+    if resume is not None:
+        old = len(resume.scans)
+        pairs = result.loop_closure.loop_pairs if result.loop_closure else []
+        stats["resumed"] = {"session": str(args.resume), "updates": old,
+                            "loop_edges_to_it": sum(anchor < old <= update for anchor, update in pairs)}
     (args.out / "stats.json").write_text(json.dumps(stats, indent=2) + "\n")
     for warning in result.warnings:
         print(f"warning: {warning}")

@@ -102,8 +102,8 @@ class ReplayRecording:
         closed = None
         if config.loop_closure.enabled:
             scans = [r.scan for r in self.records]
-            poses, grid, closed = close_filter_loops(config, slam.mount, best, update_of_scan,
-                                                     self._is_update, odometry, scans)
+            poses, grid, closed, _ = close_filter_loops(config, slam.mount, best, update_of_scan,
+                                                        self._is_update, odometry, scans)
         else:
             poses, grid = particle, slam.occupancy_map()
         stats = {

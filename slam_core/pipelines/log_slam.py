@@ -7,12 +7,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from slam_core.geometry import compose, relative
 from slam_core.graph.loop_closure import LoopClosureResult, close_loops, per_scan_poses, scan_poses
 from slam_core.io.carmen import TruncatedLogError, laser_mount_of, laser_records
 from slam_core.io.trajectory import Trajectory
 from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.rbpf import RBPFConfig, RBPFSlam, RBPFStats
 from slam_core.rbpf.laser_mount import LaserMount
+from slam_core.session import MappingSession, SessionError
 
 
 @dataclass
@@ -34,21 +36,31 @@ class SlamRun:
     loop_closure: LoopClosureResult | None = None
     warnings: list[str] = field(default_factory=list)
     laser_mount: LaserMount = field(default_factory=LaserMount)
+    #: Every update so far (a resumed session's first), to be saved and continued later.
+    session: MappingSession | None = None
 
 
 def slam_from_log(log_path, config: RBPFConfig | None = None, seed: int = 0,
-                  on_scan=None, laser_mount=None) -> SlamRun:
+                  on_scan=None, laser_mount=None, resume: MappingSession | None = None) -> SlamRun:
     """Feed every laser record of a log to a fresh filter, then close its loops;
     ``on_scan()`` is called per record. ``laser_mount`` (the laser's pose in the robot
-    frame) defaults to the offset between the laser and odometry poses of the log's lines."""
+    frame) defaults to the offset between the laser and odometry poses of the log's lines.
+
+    With ``resume`` the log continues that session: the filter starts on its map at its end
+    pose (the log must begin where the session ended), and the back end closes loops over the
+    session's updates and the log's together; trajectories and map are in the session's frame."""
     config = config or RBPFConfig()
     warnings: list[str] = []
     if laser_mount is None:
-        laser_mount = laser_mount_of(log_path)
+        laser_mount = resume.laser_mount.as_tuple() if resume is not None else laser_mount_of(log_path)
         if laser_mount is None:
             warnings.append("the log's laser poses are no fixed offset from its odometry: "
                             "laser mount taken as (0, 0, 0)")
     mount = LaserMount.of(laser_mount)
+    if resume is not None and not np.allclose(mount.as_tuple(), resume.laser_mount.as_tuple(), atol=1e-6):
+        raise SessionError(f"the session's laser mount {resume.laser_mount.as_tuple()} is not this log's "
+                           f"{mount.as_tuple()}")
+    anchor = None  # (the log's first odometry, the session's end pose)
     stamps: list[str] = []
     times: list[float] = []
     odometry: list[np.ndarray] = []
@@ -59,12 +71,18 @@ def slam_from_log(log_path, config: RBPFConfig | None = None, seed: int = 0,
     started = time.perf_counter()
     try:
         for record in laser_records(log_path):
+            odom = record.odom
+            if resume is not None:
+                anchor = anchor or (odom.copy(), resume.end_pose)
+                odom = compose(anchor[1], relative(anchor[0], odom))
             if slam is None:
-                slam = RBPFSlam(config, seed=seed, initial_pose=record.odom, laser_mount=mount)
-            is_update.append(slam.step(record.odom, record.scan))
+                slam = RBPFSlam(config, seed=seed, initial_pose=odom, laser_mount=mount)
+                if resume is not None:
+                    slam.maps.seed_from_grid(resume.grid())
+            is_update.append(slam.step(odom, record.scan))
             stamps.append(record.stamp.ipc_text)
             times.append(record.stamp.ipc_time)
-            odometry.append(record.odom)
+            odometry.append(odom)
             scans.append(record.scan)
             update_of_scan.append(slam.stats.updates - 1)
             if on_scan is not None:
@@ -81,14 +99,29 @@ def slam_from_log(log_path, config: RBPFConfig | None = None, seed: int = 0,
     particle = Trajectory(stamps, per_scan_poses(update_of_scan, odometry, best.odometry, best.poses))
     duration = float(np.max(times) - np.min(times))
     filtered = (slam.stats, slam.map_bytes(), slam.maps.tiles_in_use)
+    update_scans = [scans[k] for k in np.flatnonzero(is_update)]
     if not config.loop_closure.enabled:
+        session = _session_after(resume, config, mount, best.poses, best.odometry, update_scans,
+                                 particle.poses[-1])
         return SlamRun(*filtered, particle, particle, slam.occupancy_map(), filter_time, filter_time,
-                       duration, None, warnings, mount)
+                       duration, None, warnings, mount, session)
     del slam  # the particles' maps: the back end renders its own
-    final, grid, closed = close_filter_loops(config, mount, best, update_of_scan, is_update, odometry, scans)
+    final, grid, closed, updates = close_filter_loops(config, mount, best, update_of_scan, is_update,
+                                                      odometry, scans, resume)
+    session = _session_after(None, config, mount, updates.poses, updates.odometry,
+                             (resume.scans if resume else []) + update_scans, final[-1])
     wall = time.perf_counter() - started
     return SlamRun(*filtered, particle, Trajectory(stamps, final), grid, wall, filter_time, duration,
-                   closed, warnings, mount)
+                   closed, warnings, mount, session)
+
+
+def _session_after(resumed: MappingSession | None, config: RBPFConfig, mount: LaserMount, poses: np.ndarray,
+                   odometry: np.ndarray, scans: list, end_pose: np.ndarray) -> MappingSession:
+    """The session to continue from: the resumed one's updates (if any) then these."""
+    if resumed is not None:
+        poses, odometry = np.vstack([resumed.poses, poses]), np.vstack([resumed.odometry, odometry])
+        scans = resumed.scans + scans
+    return MappingSession(config, mount, poses, odometry, scans, end_pose)
 
 
 @dataclass(frozen=True)
@@ -107,19 +140,29 @@ def best_updates(slam: RBPFSlam) -> BestUpdates:
 
 
 def close_filter_loops(config: RBPFConfig, mount: LaserMount, best: BestUpdates, update_of_scan: np.ndarray,
-                       is_update: np.ndarray, odometry: np.ndarray,
-                       scans: list) -> tuple[np.ndarray, OccupancyGrid, LoopClosureResult]:
+                       is_update: np.ndarray, odometry: np.ndarray, scans: list,
+                       prior: MappingSession | None = None,
+                       ) -> tuple[np.ndarray, OccupancyGrid, LoopClosureResult, BestUpdates]:
     """The back end after the filter: close the best particle's loops, give every scan a robot pose
     (``update_of_scan``: each scan's last update; ``is_update``: the scans the filter updated
-    with) and render the map from the optimised poses of the updates (the laser at ``mount``)."""
+    with) and render the map from the optimised poses of the updates (the laser at ``mount``).
+    A ``prior`` session's updates come first in the graph (the filter went on from its end).
+    Also returns every update's final pose and odometry (the prior's first)."""
     lc = config.loop_closure
     update_scans = [scans[k] for k in np.flatnonzero(is_update)]
+    first = 0
+    if prior is not None:
+        first = len(prior.scans)
+        best = BestUpdates(np.vstack([prior.poses, best.poses]), np.vstack([prior.odometry, best.odometry]))
+        update_scans = prior.scans + update_scans
+        update_of_scan = update_of_scan + first
     closed, submaps = close_loops(best.poses, update_scans, lc, config.matcher, config.resolution,
                                   config.sensor, mount)
     final = scan_poses(submaps, closed.poses, update_of_scan, odometry, best.odometry, scans, lc,
                        config.matcher, config.sensor, mount)
     del submaps
+    update_poses = np.vstack([closed.poses[:first], final[is_update]])
     grid = OccupancyGrid(config.resolution, model=config.sensor)
-    for pose, scan in zip(mount.laser_poses(final[is_update]), update_scans, strict=True):
+    for pose, scan in zip(mount.laser_poses(update_poses), update_scans, strict=True):
         grid.integrate(scan, pose)
-    return final, grid, closed
+    return final, grid, closed, BestUpdates(update_poses, best.odometry)
