@@ -27,6 +27,7 @@ def _name_type(what: str):
 
 PlaceName = _name_type("place name")
 MapName = _name_type("map name")
+SessionName = _name_type("session name")
 
 
 class Strict(BaseModel):
@@ -169,6 +170,16 @@ class Place(BaseModel):
 
 class MapBody(Strict):
     name: MapName
+
+
+class SessionBody(Strict):
+    name: SessionName
+
+
+class SavedSession(BaseModel):
+    name: str
+    saved: float = Field(description="when it was saved (Unix time, s)")
+    bytes: int
 
 
 class SavedMap(BaseModel):

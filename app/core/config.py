@@ -122,6 +122,10 @@ class Settings(BaseSettings):
         return self.data_dir / "maps"
 
     @property
+    def sessions_dir(self) -> Path:
+        return self.data_dir / "sessions"
+
+    @property
     def replay_dir(self) -> Path:
         return self.data_dir / "replay"
 

@@ -11,6 +11,10 @@ filter's frame onto the optimised one (the ``map -> odom`` correction of REP-105
 pose, and the published map is the optimised one with the updates since drawn in at
 corrected poses.
 
+A back end may start from a saved mapping session (:mod:`slam_core.session`): its updates
+come first in every solve, so loops close against the old part, and :meth:`LiveBackEnd.session`
+gives the session to save or to carry over when the estimator is rebuilt.
+
 Each solve is a full re-solve over all updates so far (not yet incremental), so its cost
 grows with the map.
 """
@@ -30,12 +34,14 @@ from slam_core.pipelines.log_slam import best_updates
 from slam_core.rbpf import RBPFConfig, RBPFSlam
 from slam_core.rbpf.laser_mount import LaserMount
 from slam_core.scan import Scan
+from slam_core.session import MappingSession
 
 
 @dataclass(frozen=True)
 class BackEndResult:
-    """One solve: the optimised (robot) pose of each of the first ``len(poses)`` updates, the
-    filter's poses it started from, the loop edges kept and the map rendered from the optimised poses."""
+    """One solve: the optimised (robot) pose of each of the first ``len(poses)`` updates (a prior
+    session's first), the poses it started from, the loop edges kept and the map rendered from the
+    optimised poses."""
 
     poses: np.ndarray
     filter_poses: np.ndarray
@@ -62,21 +68,26 @@ def render(config: RBPFConfig, mount: LaserMount, poses: np.ndarray, scans: list
 class LiveBackEnd:
     """Feed :meth:`updated` after every filter update; read finished solves with :meth:`take`."""
 
-    def __init__(self, config: RBPFConfig, mount: LaserMount):
+    def __init__(self, config: RBPFConfig, mount: LaserMount, prior: MappingSession | None = None):
         self.config = config
         self.mount = mount
-        self.scans: list[Scan] = []  # the scan of every filter update
+        self.prior = prior
+        self.scans: list[Scan] = []  # the scan of every filter update (after the prior's)
         self.solves = 0
         self._thread: threading.Thread | None = None
         self._done: BackEndResult | None = None
         self._lock = threading.Lock()
 
     @classmethod
-    def attached_to(cls, estimator) -> LiveBackEnd | None:
+    def attached_to(cls, estimator, prior: MappingSession | None = None) -> LiveBackEnd | None:
         """A back end for a particle filter that closes loops; ``None`` for any other estimator."""
         if isinstance(estimator, RBPFSlam) and estimator.config.loop_closure.enabled:
-            return cls(estimator.config, estimator.mount)
+            return cls(estimator.config, estimator.mount, prior)
         return None
+
+    @property
+    def prior_updates(self) -> int:
+        return 0 if self.prior is None else len(self.prior.scans)
 
     @property
     def busy(self) -> bool:
@@ -87,11 +98,33 @@ class LiveBackEnd:
         self.scans.append(scan)
         if len(self.scans) % self.config.loop_closure.submap_updates or self.busy:
             return
-        poses = best_updates(slam).poses
+        poses, scans = best_updates(slam).poses, list(self.scans)
+        if self.prior is not None:
+            poses, scans = np.vstack([self.prior.poses, poses]), self.prior.scans + scans
         layout = slam.occupancy_map()
-        self._thread = threading.Thread(target=self._solve, args=(poses, list(self.scans), layout),
+        self._thread = threading.Thread(target=self._solve, args=(poses, scans, layout),
                                         name="live-back-end", daemon=True)
         self._thread.start()
+
+    def session(self, slam: RBPFSlam, solved: BackEndResult | None,
+                end_pose: np.ndarray) -> MappingSession | None:
+        """Every update so far as a session: the prior's and the solved ones at their optimised
+        poses, the newer ones at the filter's poses moved by the last solve's correction."""
+        first = self.prior_updates
+        best = best_updates(slam)
+        poses = best.poses
+        old = self.prior.poses if self.prior is not None else np.zeros((0, 3))
+        if solved is not None:
+            done = len(solved.poses) - first
+            old = solved.poses[:first]
+            poses = np.vstack([solved.poses[first:], compose(solved.correction, poses[done:]).reshape(-1, 3)])
+        if first + len(poses) == 0:
+            return None
+        odometry = best.odometry.reshape(-1, 3)
+        if self.prior is not None:
+            odometry = np.vstack([self.prior.odometry, odometry])
+        scans = (self.prior.scans if self.prior is not None else []) + self.scans
+        return MappingSession(self.config, self.mount, np.vstack([old, poses]), odometry, scans, end_pose)
 
     def _solve(self, poses: np.ndarray, scans: list[Scan], layout: OccupancyGrid) -> None:
         started = time.perf_counter()

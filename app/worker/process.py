@@ -56,6 +56,7 @@ from slam_core.occupancy_grid import OccupancyGrid, SensorModel
 from slam_core.pipelines.log_slam import best_updates
 from slam_core.rbpf.config import RBPFConfig
 from slam_core.rbpf.filter import RBPFSlam
+from slam_core.session import MappingSession, load_session, save_session
 
 log = logging.getLogger(__name__)
 
@@ -133,6 +134,7 @@ class Worker:
             self.mode = "mapping"
             self.estimator = make_estimator("mapping", s, checkpoint)
         self.loop_closures = self.loop_edges_seen = 0
+        self.session_prior: MappingSession | None = None  # carried over when the estimator is rebuilt
         self._attach_back_end(seeded=checkpoint.grid is not None)
         self.updated_at: np.ndarray | None = None  # re-anchored odometry at the estimator's last update
         self.ticks: tuple[int, int] | None = None  # encoder counts of the last step
@@ -166,11 +168,23 @@ class Worker:
         return records[0].odom
 
     def _attach_back_end(self, seeded: bool) -> None:
-        """The live back end of a particle filter that starts from an empty map (it needs every
-        scan of the map; a filter resumed on a checkpoint's map goes on alone)."""
-        self.back_end = None if seeded else LiveBackEnd.attached_to(self.estimator)
+        """The live back end of a particle filter that starts from an empty map or goes on from a
+        mapping session (it needs every scan of the map; a filter resumed on a checkpoint's map
+        alone goes on without)."""
+        prior = self.session_prior
+        self.back_end = None if seeded and prior is None else LiveBackEnd.attached_to(self.estimator, prior)
         self.solved: BackEndResult | None = None
         self.published_grid: OccupancyGrid | None = None  # optimised map + updates since
+
+    def _map_pose(self) -> np.ndarray:
+        """The robot's pose in the map frame (the back end's correction applied)."""
+        return self.pose.copy() if self.solved is None else compose(self.solved.correction, self.pose)
+
+    def _session(self) -> MappingSession | None:
+        """The mapping session so far: the back end's updates, else the one carried over."""
+        if self.back_end is not None and isinstance(self.estimator, RBPFSlam):
+            return self.back_end.session(self.estimator, self.solved, self._map_pose()) or self.session_prior
+        return self.session_prior
 
     # messages to the server
     def _event(self, event: str, **fields) -> None:
@@ -224,8 +238,14 @@ class Worker:
             save_pose(directory, self._checkpoint(with_map=False), self.generation)
 
     def _rebuild(self, mode: str, grid=None, pose=None, mapping=None, map_name=None) -> None:
-        """Swap the estimator, keeping the map frame continuous (odometry re-anchored)."""
+        """Swap the estimator, keeping the map frame continuous (odometry re-anchored). With the
+        back end's optimised map the new estimator goes on in it, and the mapping session so far
+        is carried over (a new map drops it)."""
+        self.session_prior = self._session() if grid is None else None
         current = self._checkpoint()
+        if self.solved is not None and grid is None:
+            current = replace(current, grid=self.published_grid, hit_sums=None,
+                              pose=self._map_pose() if pose is None else current.pose)
         checkpoint = Checkpoint(
             mode, current.pose if pose is None else np.asarray(pose, float),
             current.grid if grid is None else grid,
@@ -267,6 +287,10 @@ class Worker:
             elif name == "mapping":
                 self._rebuild("mapping", mapping=bool(args[0]))
                 self._start_relocalizing(bool(args[0]))
+            elif name == "save_session":
+                self._save_session(Path(args[0]))
+            elif name == "resume_session":
+                self._resume_session(load_session(Path(args[0])))
             elif name == "shutdown":
                 self.stop.set()
                 return
@@ -275,6 +299,25 @@ class Worker:
             self._event("changed", mode=self.mode, mapping=self.mapping)
         except (ModeUnavailable, ValueError, OSError) as exc:
             self._event("error", detail=f"{name}: {exc}")
+
+    def _save_session(self, path: Path) -> None:
+        session = self._session()
+        if session is None:
+            raise ValueError("no mapping session to save: the loop-closing back end runs from a new map "
+                             "or a resumed session on")
+        save_session(session, path)
+        self._event("session_saved", name=path.name, updates=len(session.scans))
+
+    def _resume_session(self, session: MappingSession) -> None:
+        """Map on in a saved session's map: find the robot in it first (its end pose is the guess)."""
+        if abs(session.config.resolution - self.settings.resolution) > 1e-12:
+            raise ValueError(f"the session's resolution {session.config.resolution} m is not the server's "
+                             f"{self.settings.resolution} m")
+        self._rebuild("mapping", grid=session.grid(), pose=session.end_pose, mapping=True)
+        self.session_prior = session
+        self._attach_back_end(seeded=True)
+        self._start_relocalizing()
+        self._event("session_resumed", updates=len(session.scans))
 
     def _check_room(self, pose, reach: float) -> None:
         """:class:`MapTooLarge` if a scan from ``pose`` would grow the map past its limit."""
@@ -430,7 +473,7 @@ class Worker:
         self.solved = result
         scans = self.back_end.scans
         mount = self.estimator.mount
-        for k in range(len(result.poses), len(scans)):
+        for k in range(len(result.poses) - self.back_end.prior_updates, len(scans)):
             result.grid.integrate(scans[k], mount.laser_poses(compose(result.correction, best[k])))
         self.published_grid = result.grid
 

@@ -43,8 +43,9 @@ def _events_after(runtime: Runtime, marker: dict | None) -> list[dict]:
     return events if marker is None else []
 
 
-async def apply(runtime: Runtime, response: Response, *command) -> dict:
-    """Send a worker command and wait for its outcome (see the module docstring)."""
+async def apply(runtime: Runtime, response: Response, *command, refused: str = "mode_refused") -> dict:
+    """Send a worker command and wait for its outcome (see the module docstring); ``refused`` is
+    the reason of a 409."""
     marker = runtime.events[-1] if runtime.events else None
     if not runtime.supervisor.send(*command):
         raise ApiError(status.HTTP_503_SERVICE_UNAVAILABLE, "worker_unavailable",
@@ -59,7 +60,7 @@ async def apply(runtime: Runtime, response: Response, *command) -> dict:
         if event["event"] == "changed":
             return runtime.status()
         if event["event"] == "error":
-            raise ApiError(status.HTTP_409_CONFLICT, "mode_refused",
+            raise ApiError(status.HTTP_409_CONFLICT, refused,
                            _without_data_dir(str(event.get("detail")), runtime.settings.data_dir))
         raise ApiError(status.HTTP_503_SERVICE_UNAVAILABLE, "worker_restarting",
                        "the worker stopped while switching; it restarts from its checkpoint")
