@@ -1,9 +1,11 @@
 """The SLAM worker process: synchronised estimator steps, published state, map and checkpoints.
 
-Each new scan is stepped once, with the odometry at its own stamp (:mod:`app.worker.pairing`);
+Each new scan is stepped once, with the odometry at its own stamp (:mod:`app.worker.pairing`),
+read from the server's odometry ring (the worker never opens the serial port);
 with ``settings.replay`` a CARMEN log takes the robot's place (:mod:`app.replay`). A mapping
 filter has the loop-closing back end beside it (:mod:`app.worker.live_back_end`). After each
-step the pose, particle cloud and scan go to the server on a small queue; the map goes into
+step a :class:`~app.worker.messages.WorkerState` (pose, its ``map -> odom`` correction, particle
+cloud, scan) goes to the server on a small queue; the map goes into
 shared memory at ``map_hz``, with per-tile change stamps (:mod:`app.worker.shared_map`), so
 the map is never pickled.
 """
@@ -25,11 +27,11 @@ import numpy as np
 
 from app.core.config import Settings
 from app.core.rate import SlidingRate
-from app.grabbers.odometry_grabber import OdometryGrabber
 from app.grabbers.odometry_history import OdometryHistory
+from app.grabbers.ring_odometry_grabber import RingOdometryGrabber
 from app.grabbers.scan_grabber import ScanGrabber, load_sensor_source
-from app.grabbers.shared import Latest
-from app.replay.log_feed import LogReplay, read_laser_records, replay_name
+from app.grabbers.shared import Fanout, Latest
+from app.replay.log_feed import LoggedOdometry, LogReplay, read_laser_records, replay_name
 from app.replay.recording import ReplayRecording
 from app.worker.checkpoint import load_checkpoint, save_exit_map, save_pose, save_snapshot
 from app.worker.estimators import (
@@ -41,10 +43,21 @@ from app.worker.estimators import (
     map_with_hits,
     warm_up,
 )
+from app.worker.frames import map_to_odom, pose_in_map
 from app.worker.lifeline import bind_to_parent
 from app.worker.live_back_end import BackEndResult, LiveBackEnd
 from app.worker.lockfile import acquire_worker_lock
 from app.worker.map_limits import check_room, map_box, scan_reach
+from app.worker.messages import (
+    Command,
+    SetMapping,
+    SetMode,
+    SetPose,
+    Shutdown,
+    WorkerEvent,
+    WorkerState,
+    waiting_commands,
+)
 from app.worker.pairing import Pair, StampedPairing
 from app.worker.relocalize import Relocalizer
 from app.worker.shared_map import MapTooLarge, SharedMap, grid_cells
@@ -74,10 +87,12 @@ class WorkerSpec:
 
     settings: dict
     shm_name: str
-    port: str
     restart: int = 0
     initial_pose: tuple[float, float, float] = (0.0, 0.0, 0.0)
     parent_pid: int = 0  # the server; the worker ends when it dies
+    #: The last worker's ``map -> odom`` correction: with the odometry, where a restarted worker
+    #: first looks for the robot (the link kept the odometry going, and maybe the robot driving).
+    map_to_odom: tuple[float, float, float] | None = None
 
 
 def put_newest(q, item) -> None:
@@ -89,7 +104,7 @@ def put_newest(q, item) -> None:
 class Worker:
     """The loop run by :func:`worker_main` (a class so its parts stay small)."""
 
-    def __init__(self, spec: WorkerSpec, commands, states, scan_slot):
+    def __init__(self, spec: WorkerSpec, commands, states, scan_slot, odometry_ring):
         self.settings = Settings(**spec.settings)
         self.spec = spec
         self.commands = commands
@@ -99,6 +114,7 @@ class Worker:
         self.shm = SharedMap(s.map_capacity_cells, s.tile_size, name=spec.shm_name)
         self.wakeup = threading.Event()
         self.scans = Latest()
+        self.odometry_ring = odometry_ring
         self.replay: ReplayRecording | None = None
         self.anchor: tuple[np.ndarray, np.ndarray] | None = None
         if s.replay:
@@ -107,13 +123,12 @@ class Worker:
             checkpoint, self.generation = None, 0
         else:
             history = OdometryHistory()
-            self.odometry_grabber = OdometryGrabber(spec.port, s.serial_baud, output=history)
+            odometry_grabber = RingOdometryGrabber(odometry_ring, history)
             if scan_slot is not None:
-                self.scan_grabber = ScanGrabber(slot=scan_slot, output=self.scans)
+                scan_grabber = ScanGrabber(slot=scan_slot, output=self.scans)
             else:
-                self.scan_grabber = ScanGrabber(source=load_sensor_source(s.sensor_source), output=self.scans)
-            self.link = self.odometry_grabber
-            self.sources = [self.odometry_grabber, self.scan_grabber]
+                scan_grabber = ScanGrabber(source=load_sensor_source(s.sensor_source), output=self.scans)
+            self.sources = [odometry_grabber, scan_grabber]
             self.pairing = StampedPairing(history, self.scans)
             initial_pose = spec.initial_pose
             restored = load_checkpoint(s.checkpoint_dir, s.map_capacity_cells)
@@ -148,18 +163,19 @@ class Worker:
         # A restored map: find the robot in it before anything is written (app.worker.relocalize).
         self.relocalizer = self._relocalizer() if was_restored else None
         self.relocalizing_from: tuple[np.ndarray, np.ndarray] | None = None  # (odometry, pose) at the start
+        self.guess_correction = None if spec.map_to_odom is None else np.array(spec.map_to_odom, float)
 
     def _open_replay(self, replay_dir: Path) -> np.ndarray:
-        """The log takes the robot's place; returns the first record's odometry, the start pose."""
+        """The log takes the robot's place (its odometry also goes into the ring, for the server);
+        returns the first record's odometry, the start pose."""
         s = self.settings
         path = resolve_log(s.replay)
         records, warnings = read_laser_records(path)
         name = replay_name(s.replay)
         history = OdometryHistory()
-        self.feed = LogReplay(records, s.replay_speed, history, self.scans)
+        self.feed = LogReplay(records, s.replay_speed, Fanout(history, self.odometry_ring), self.scans)
         self.replay = ReplayRecording(path, name, records, replay_dir / name, s.replay_speed, s.seed,
                                       warnings)
-        self.link = self.feed
         self.sources = [self.feed]
         self.pairing = StampedPairing(history, self.scans)
         self.anchor = (np.zeros(3), np.zeros(3))  # the log's odometry frame is the map frame, as offline
@@ -174,9 +190,11 @@ class Worker:
 
     # messages to the server
     def _event(self, event: str, **fields) -> None:
-        put_newest(self.states, {"kind": "event", "event": event, "t": time.time(), **fields})
+        put_newest(self.states, WorkerEvent(event, time.time(), fields))
 
-    def _publish_state(self, scan, estimate) -> None:
+    def _publish_state(self, scan, estimate, odometry) -> None:
+        """The estimate after a step with ``odometry`` (the raw reading it used, in the link's odom
+        frame), and the ``map -> odom`` correction between the two (:mod:`app.worker.frames`)."""
         s = self.settings
         particles = estimate.particles
         weights = estimate.weights
@@ -186,19 +204,18 @@ class Worker:
             weights = weights[::stride] if weights is not None else None
         pose = np.asarray(estimate.pose, float)
         points = transform_points(pose, scan.points()).astype(np.float32)
-        put_newest(self.states, {
-            "kind": "state", "t": time.time(), "seq": self.steps, "pose": pose,
-            "localized": bool(estimate.localized),
-            "particles": None if particles is None else np.asarray(particles, np.float32),
-            "weights": None if weights is None else np.asarray(weights, np.float32),
-            "points": points, "mode": self.mode, "mapping": self.mapping, "steps": self.steps,
-            "relocalizing": self.relocalizer is not None,
-            "rate_hz": self.rate_hz,
-            "landmarks": estimate.landmarks, "landmark_covariances": estimate.landmark_covariances,
-            "replay": self._replay_progress(),
-            "loops": {"closures": self.loop_closures, "edges": self.solved.loop_edges if self.solved else 0,
-                      "solves": self.back_end.solves if self.back_end else 0},
-        })
+        put_newest(self.states, WorkerState(
+            t=time.time(), seq=self.steps, pose=pose, localized=bool(estimate.localized),
+            map_to_odom=map_to_odom(pose, odometry.pose), odom_stamp=float(odometry.stamp),
+            mode=self.mode, mapping=self.mapping, steps=self.steps, rate_hz=self.rate_hz,
+            relocalizing=self.relocalizer is not None,
+            particles=None if particles is None else np.asarray(particles, np.float32),
+            weights=None if weights is None else np.asarray(weights, np.float32),
+            points=points, landmarks=estimate.landmarks, landmark_covariances=estimate.landmark_covariances,
+            replay=self._replay_progress(),
+            loops={"closures": self.loop_closures, "edges": self.solved.loop_edges if self.solved else 0,
+                   "solves": self.back_end.solves if self.back_end else 0},
+        ))
 
     def _replay_progress(self) -> dict | None:
         return None if self.replay is None else asdict(self.replay.progress(self.feed.played))
@@ -242,39 +259,32 @@ class Worker:
         self.updated_at = None
         self.map_written = False
 
-    def _handle(self, command: tuple) -> None:
-        name, *args = command
-        if name == "velocity":
-            self.link.send_velocity(*args)
+    def _handle(self, command: Command) -> None:
+        if isinstance(command, Shutdown):
+            self.stop.set()
             return
         try:
-            if name == "mode":
-                mode, yaml_path, map_name, new_map = args
-                grid = load_map(yaml_path) if yaml_path else None
-                if new_map:
+            if isinstance(command, SetMode):
+                grid = load_map(command.yaml_path) if command.yaml_path else None
+                if command.new_map:
                     grid = OccupancyGrid(self.settings.resolution)  # empty: mapping starts afresh
-                self._rebuild(mode, grid=grid, mapping=True, map_name=map_name)
+                self._rebuild(command.mode, grid=grid, mapping=True, map_name=command.map_name)
                 # Back to mapping: register the scans before drawing them (other modes need no map
                 # or, on a loaded map, localize by themselves).
-                self._start_relocalizing(mode == "mapping" and not new_map)
-            elif name == "pose":
-                pose = np.asarray(args, float)
+                self._start_relocalizing(command.mode == "mapping" and not command.new_map)
+            elif isinstance(command, SetPose):
+                pose = np.array([command.x, command.y, command.yaw], float)
                 self._check_room(pose, SensorModel().usable_range)
                 if self.relocalizer is not None:  # the person's pose becomes the search's guess
-                    self.pose, self.relocalizing_from = pose, None
+                    self.pose, self.relocalizing_from, self.guess_correction = pose, None, None
                 else:
                     self._rebuild(self.mode, pose=pose)
-            elif name == "mapping":
-                self._rebuild("mapping", mapping=bool(args[0]))
-                self._start_relocalizing(bool(args[0]))
-            elif name == "shutdown":
-                self.stop.set()
-                return
-            else:
-                raise ValueError(f"unknown worker command {name!r}")
+            elif isinstance(command, SetMapping):
+                self._rebuild("mapping", mapping=command.enabled)
+                self._start_relocalizing(command.enabled)
             self._event("changed", mode=self.mode, mapping=self.mapping)
         except (ModeUnavailable, ValueError, OSError) as exc:
-            self._event("error", detail=f"{name}: {exc}")
+            self._event("error", detail=f"{type(command).__name__}: {exc}")
 
     def _check_room(self, pose, reach: float) -> None:
         """:class:`MapTooLarge` if a scan from ``pose`` would grow the map past its limit."""
@@ -296,7 +306,7 @@ class Worker:
     def _start_relocalizing(self, needed: bool = True) -> None:
         """Find the robot in the current map before the next scan is drawn (or stop looking)."""
         self.relocalizer = self._relocalizer() if needed else None
-        self.relocalizing_from = None
+        self.relocalizing_from = self.guess_correction = None
 
     def _relocalizer(self) -> Relocalizer | None:
         current = self._checkpoint()
@@ -304,34 +314,30 @@ class Worker:
             return None
         return Relocalizer(current.grid, current.hit_sums, RBPFConfig(resolution=current.grid.resolution))
 
-    def _relocalize(self, odometry, scan) -> bool:
+    def _relocalize(self, reading, scan) -> bool:
         """Look for the robot in the restored map; until found, publish the guess and map nothing.
 
-        The guess is the last pose carried on by the odometry since the start. Once found, the
-        estimator is rebuilt at the pose found, so mapping continues the same map, in register.
+        The guess is the last pose carried on by the odometry since the start (after a restart, the
+        last worker's correction composed with the odometry). Once found, the estimator is rebuilt
+        at the pose found, so mapping continues the same map, in register.
         """
+        odometry = np.asarray(reading.pose, float)
         if self.relocalizing_from is None:
-            self.relocalizing_from = (np.asarray(odometry, float).copy(), self.pose.copy())
+            start = self.pose.copy() if self.guess_correction is None else pose_in_map(self.guess_correction,
+                                                                                         odometry)
+            self.relocalizing_from, self.guess_correction = (odometry.copy(), start), None
         odo0, pose0 = self.relocalizing_from
         guess = compose(pose0, relative(odo0, odometry))
         fix = self.relocalizer.locate(scan, guess)
         if fix is None:
             self.pose = guess
-            self._publish_state(scan, Estimate(pose=guess, localized=False))
+            self._publish_state(scan, Estimate(pose=guess, localized=False), reading)
             return False
         self.relocalizer = self.relocalizing_from = None
         self._rebuild(self.mode, pose=fix.pose)
         self._event("relocalized", search=fix.search, fit=round(fix.fit, 3),
                     pose=[round(float(v), 4) for v in fix.pose])
         return True
-
-    def _drain_commands(self) -> None:
-        while True:
-            try:
-                command = self.commands.get_nowait()
-            except queue.Empty:
-                return
-            self._handle(command)
 
     # the loop
     def run(self) -> None:
@@ -344,7 +350,8 @@ class Worker:
         next_map = next_checkpoint = next_pose_save = time.monotonic()
         try:
             while not self.stop.is_set():
-                self._drain_commands()
+                for command in waiting_commands(self.commands):
+                    self._handle(command)
                 pair = self.pairing.next(WAIT_S)
                 if pair is not None:
                     self._step(pair)
@@ -375,7 +382,7 @@ class Worker:
         reading, scan = pair.odometry, pair.scan
         odometry = reading.pose
         self.ticks = reading.ticks
-        if self.relocalizer is not None and not self._relocalize(odometry, scan):
+        if self.relocalizer is not None and not self._relocalize(reading, scan):
             return
         if self.anchor is None:
             self.anchor = (np.asarray(odometry, float).copy(), self.pose.copy())
@@ -402,7 +409,7 @@ class Worker:
         self.rate_hz = self._step_rate.rate(now)
         self.trajectory.append(self.pose.copy())
         del self.trajectory[:-TRAJECTORY_KEEP]
-        self._publish_state(scan, self._corrected(estimate))
+        self._publish_state(scan, self._corrected(estimate), reading)
 
     def _corrected(self, estimate: Estimate) -> Estimate:
         """The filter's estimate in the map frame: the back end's correction composed with it."""
@@ -461,7 +468,9 @@ class Worker:
         self.estimator, self.mapping = FrozenMap(result.grid, self.pose), False
         self.map_written = False
         self._publish_map()
-        self._publish_state(self.replay.records[-1].scan, self.estimator.estimate())
+        last = self.replay.records[-1]
+        odometry = LoggedOdometry(last.odom, last.stamp.ipc_time)
+        self._publish_state(last.scan, self.estimator.estimate(), odometry)
         self._event("replay_finished", replay=self._replay_progress(), loop_edges=result.loop_edges,
                     paths=[str(p) for p in result.paths])
 
@@ -491,8 +500,6 @@ class Worker:
 
     def _exit(self) -> None:
         """Save the last map (PGM + YAML + PNG) and a final checkpoint; stop the grabbers."""
-        with contextlib.suppress(Exception):
-            self.link.send_velocity(0.0, 0.0)
         s = self.settings
         grid = self.published_grid if self.published_grid is not None else self._checkpoint().grid
         if grid is not None and grid.data.size:
@@ -505,7 +512,7 @@ class Worker:
         self.shm.close()
 
 
-def worker_main(spec: WorkerSpec, commands, states, scan_slot) -> None:
+def worker_main(spec: WorkerSpec, commands, states, scan_slot, odometry_ring) -> None:
     """Process entry point: SIGINT/SIGTERM stop the loop, which then saves the map."""
     logging.basicConfig(level=logging.WARNING)
     worker = None
@@ -520,11 +527,10 @@ def worker_main(spec: WorkerSpec, commands, states, scan_slot) -> None:
     try:
         lock = acquire_worker_lock(Path(spec.settings["data_dir"]))
         if lock.ended_pid is not None:
-            put_newest(states, {"kind": "event", "event": "ended_stale_worker", "t": time.time(),
-                                "pid": lock.ended_pid})
-        worker = Worker(spec, commands, states, scan_slot)
+            put_newest(states, WorkerEvent("ended_stale_worker", time.time(), {"pid": lock.ended_pid}))
+        worker = Worker(spec, commands, states, scan_slot, odometry_ring)
         worker.run()
     except Exception as exc:
-        put_newest(states, {"kind": "event", "event": "crashed", "t": time.time(),
-                            "detail": f"{type(exc).__name__}: {exc}", "trace": traceback.format_exc()})
+        put_newest(states, WorkerEvent("crashed", time.time(), {"detail": f"{type(exc).__name__}: {exc}",
+                                                                 "trace": traceback.format_exc()}))
         raise
