@@ -211,9 +211,11 @@ class Runtime:
         self._last_stream = time.monotonic()
 
     def _publish_pose(self) -> None:
-        """The current pose (:meth:`current_pose`), stamped now; ``seq`` is the worker step it corrects."""
+        """The current pose (:meth:`current_pose`), stamped now; ``seq`` is the worker step whose
+        correction it uses, ``odom_t`` the stamp of the odometry it is composed with."""
         m = self.latest
-        self.hub.publish("pose", {"t": time.time(), "seq": m.seq, **_pose_fields(self.current_pose()),
+        pose, odom_t = self._composed_pose()
+        self.hub.publish("pose", {"t": time.time(), "seq": m.seq, **_pose_fields(pose), "odom_t": odom_t,
                                   "localized": m.localized})
 
     # pumps
@@ -283,13 +285,15 @@ class Runtime:
     def current_pose(self) -> np.ndarray | None:
         """The worker's ``map -> odom`` correction composed with the newest odometry (REP-105): fresh
         at odometry rate between SLAM steps, across worker restarts, and at once after a loop closure."""
+        return None if self.latest is None else self._composed_pose()[0]
+
+    def _composed_pose(self) -> tuple[np.ndarray, float]:
+        """:meth:`current_pose` and the stamp of the odometry it is made of (with a worker state)."""
         latest = self.latest
-        if latest is None:
-            return None
         odometry = self.odometry_ring.newest()
         if odometry is None:
-            return np.asarray(latest.pose, float)
-        return pose_in_map(latest.map_to_odom, odometry.pose)
+            return np.asarray(latest.pose, float), latest.odom_stamp
+        return pose_in_map(latest.map_to_odom, odometry.pose), odometry.stamp
 
     def _correction(self) -> np.ndarray | None:
         """The newest ``map -> odom`` (for a restarted worker; none while a log is replayed)."""
