@@ -20,7 +20,7 @@ import signal
 import threading
 import time
 import traceback
-from dataclasses import asdict, dataclass, replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -30,9 +30,7 @@ from app.core.rate import SlidingRate
 from app.grabbers.odometry_history import OdometryHistory
 from app.grabbers.ring_odometry_grabber import RingOdometryGrabber
 from app.grabbers.scan_grabber import ScanGrabber, load_sensor_source
-from app.grabbers.shared import Fanout, Latest
-from app.replay.log_feed import LoggedOdometry, LogReplay, read_laser_records, replay_name
-from app.replay.recording import ReplayRecording
+from app.grabbers.shared import Latest
 from app.worker.checkpoint import load_checkpoint, save_exit_map, save_pose, save_snapshot
 from app.worker.estimators import (
     Checkpoint,
@@ -43,10 +41,10 @@ from app.worker.estimators import (
     map_with_hits,
     warm_up,
 )
-from app.worker.frames import map_to_odom, pose_in_map
+from app.worker.frames import map_to_odom
 from app.worker.lifeline import bind_to_parent
-from app.worker.live_back_end import BackEndResult, LiveBackEnd
 from app.worker.lockfile import acquire_worker_lock
+from app.worker.loop_closing import LoopClosing
 from app.worker.map_limits import check_room, map_box, scan_reach
 from app.worker.messages import (
     Command,
@@ -60,13 +58,13 @@ from app.worker.messages import (
 )
 from app.worker.pairing import Pair, StampedPairing
 from app.worker.relocalize import Relocalizer
+from app.worker.relocalizing import Relocalizing
+from app.worker.replay_driver import ReplayDriver
 from app.worker.shared_map import MapTooLarge, SharedMap, grid_cells
-from slam_core.datasets import resolve_log
 from slam_core.estimator import Estimate
-from slam_core.geometry import compose, relative, transform_points, wrap_angle
+from slam_core.geometry import compose, relative, transform_points
 from slam_core.io.ros_map import load_map
 from slam_core.occupancy_grid import OccupancyGrid, SensorModel
-from slam_core.pipelines.log_slam import best_updates
 from slam_core.rbpf.config import RBPFConfig
 from slam_core.rbpf.filter import RBPFSlam
 
@@ -112,13 +110,14 @@ class Worker:
         self.stop = threading.Event()
         s = self.settings
         self.shm = SharedMap(s.map_capacity_cells, s.tile_size, name=spec.shm_name)
-        self.wakeup = threading.Event()
         self.scans = Latest()
-        self.odometry_ring = odometry_ring
-        self.replay: ReplayRecording | None = None
+        self.replay: ReplayDriver | None = None
         self.anchor: tuple[np.ndarray, np.ndarray] | None = None
         if s.replay:
-            initial_pose = self._open_replay(s.replay_dir)
+            self.replay = ReplayDriver(s, self.scans, odometry_ring)
+            self.sources, self.pairing = [self.replay.feed], self.replay.pairing
+            self.anchor = (np.zeros(3), np.zeros(3))  # the log's odometry frame is the map frame, as offline
+            initial_pose = self.replay.start_odometry
             # a replay starts afresh and leaves the robot's checkpoints alone
             checkpoint, self.generation = None, 0
         else:
@@ -147,8 +146,8 @@ class Worker:
             self._event("error", detail=str(exc))
             self.mode = "mapping"
             self.estimator = make_estimator("mapping", s, checkpoint)
-        self.loop_closures = self.loop_edges_seen = 0
-        self._attach_back_end(seeded=checkpoint.grid is not None)
+        self.loops = LoopClosing()
+        self.loops.attach(self.estimator, seeded=checkpoint.grid is not None)
         self.updated_at: np.ndarray | None = None  # re-anchored odometry at the estimator's last update
         self.ticks: tuple[int, int] | None = None  # encoder counts of the last step
         self.steps = 0
@@ -161,32 +160,8 @@ class Worker:
         self.kept_grid, self.kept_hits = checkpoint.grid, checkpoint.hit_sums
         self.map_changed = False  # since the last snapshot
         # A restored map: find the robot in it before anything is written (app.worker.relocalize).
-        self.relocalizer = self._relocalizer() if was_restored else None
-        self.relocalizing_from: tuple[np.ndarray, np.ndarray] | None = None  # (odometry, pose) at the start
-        self.guess_correction = None if spec.map_to_odom is None else np.array(spec.map_to_odom, float)
-
-    def _open_replay(self, replay_dir: Path) -> np.ndarray:
-        """The log takes the robot's place (its odometry also goes into the ring, for the server);
-        returns the first record's odometry, the start pose."""
-        s = self.settings
-        path = resolve_log(s.replay)
-        records, warnings = read_laser_records(path)
-        name = replay_name(s.replay)
-        history = OdometryHistory()
-        self.feed = LogReplay(records, s.replay_speed, Fanout(history, self.odometry_ring), self.scans)
-        self.replay = ReplayRecording(path, name, records, replay_dir / name, s.replay_speed, s.seed,
-                                      warnings)
-        self.sources = [self.feed]
-        self.pairing = StampedPairing(history, self.scans)
-        self.anchor = (np.zeros(3), np.zeros(3))  # the log's odometry frame is the map frame, as offline
-        return records[0].odom
-
-    def _attach_back_end(self, seeded: bool) -> None:
-        """The live back end of a particle filter that starts from an empty map (it needs every
-        scan of the map; a filter resumed on a checkpoint's map goes on alone)."""
-        self.back_end = None if seeded else LiveBackEnd.attached_to(self.estimator)
-        self.solved: BackEndResult | None = None
-        self.published_grid: OccupancyGrid | None = None  # optimised map + updates since
+        correction = None if spec.map_to_odom is None else np.array(spec.map_to_odom, float)
+        self.relocalizing = self._relocalizing(correction) if was_restored else None
 
     # messages to the server
     def _event(self, event: str, **fields) -> None:
@@ -208,17 +183,15 @@ class Worker:
             t=time.time(), seq=self.steps, pose=pose, localized=bool(estimate.localized),
             map_to_odom=map_to_odom(pose, odometry.pose), odom_stamp=float(odometry.stamp),
             mode=self.mode, mapping=self.mapping, steps=self.steps, rate_hz=self.rate_hz,
-            relocalizing=self.relocalizer is not None,
+            relocalizing=self.relocalizing is not None,
             particles=None if particles is None else np.asarray(particles, np.float32),
             weights=None if weights is None else np.asarray(weights, np.float32),
             points=points, landmarks=estimate.landmarks, landmark_covariances=estimate.landmark_covariances,
-            replay=self._replay_progress(),
-            loops={"closures": self.loop_closures, "edges": self.solved.loop_edges if self.solved else 0,
-                   "solves": self.back_end.solves if self.back_end else 0},
+            replay=self._replay_progress(), loops=self.loops.stats(),
         ))
 
     def _replay_progress(self) -> dict | None:
-        return None if self.replay is None else asdict(self.replay.progress(self.feed.played))
+        return None if self.replay is None else self.replay.progress()
 
     # estimator management
     def _checkpoint(self, with_map: bool = True) -> Checkpoint:
@@ -254,7 +227,7 @@ class Worker:
         self.pose, self.map_name = checkpoint.pose, checkpoint.map_name
         self.kept_grid, self.kept_hits = checkpoint.grid, checkpoint.hit_sums
         self.map_changed = True
-        self._attach_back_end(seeded=checkpoint.grid is not None)
+        self.loops.attach(self.estimator, seeded=checkpoint.grid is not None)
         self.anchor = None
         self.updated_at = None
         self.map_written = False
@@ -275,8 +248,9 @@ class Worker:
             elif isinstance(command, SetPose):
                 pose = np.array([command.x, command.y, command.yaw], float)
                 self._check_room(pose, SensorModel().usable_range)
-                if self.relocalizer is not None:  # the person's pose becomes the search's guess
-                    self.pose, self.relocalizing_from, self.guess_correction = pose, None, None
+                if self.relocalizing is not None:  # the person's pose becomes the search's guess
+                    self.pose = pose
+                    self.relocalizing.restart()
                 else:
                     self._rebuild(self.mode, pose=pose)
             elif isinstance(command, SetMapping):
@@ -305,35 +279,25 @@ class Worker:
 
     def _start_relocalizing(self, needed: bool = True) -> None:
         """Find the robot in the current map before the next scan is drawn (or stop looking)."""
-        self.relocalizer = self._relocalizer() if needed else None
-        self.relocalizing_from = self.guess_correction = None
+        self.relocalizing = self._relocalizing() if needed else None
 
-    def _relocalizer(self) -> Relocalizer | None:
+    def _relocalizing(self, correction: np.ndarray | None = None) -> Relocalizing | None:
         current = self._checkpoint()
         if current.grid is None or not current.grid.data.size:
             return None
-        return Relocalizer(current.grid, current.hit_sums, RBPFConfig(resolution=current.grid.resolution))
+        config = RBPFConfig(resolution=current.grid.resolution)
+        return Relocalizing(Relocalizer(current.grid, current.hit_sums, config), correction)
 
     def _relocalize(self, reading, scan) -> bool:
-        """Look for the robot in the restored map; until found, publish the guess and map nothing.
-
-        The guess is the last pose carried on by the odometry since the start (after a restart, the
-        last worker's correction composed with the odometry). Once found, the estimator is rebuilt
-        at the pose found, so mapping continues the same map, in register.
-        """
-        odometry = np.asarray(reading.pose, float)
-        if self.relocalizing_from is None:
-            start = self.pose.copy() if self.guess_correction is None else pose_in_map(self.guess_correction,
-                                                                                         odometry)
-            self.relocalizing_from, self.guess_correction = (odometry.copy(), start), None
-        odo0, pose0 = self.relocalizing_from
-        guess = compose(pose0, relative(odo0, odometry))
-        fix = self.relocalizer.locate(scan, guess)
+        """Look for the robot in the restored map; until found, publish the guess and map nothing
+        (:mod:`app.worker.relocalizing`). Once found, the estimator is rebuilt at the pose found, so
+        mapping continues the same map, in register."""
+        fix, guess = self.relocalizing.locate(reading.pose, scan, self.pose)
         if fix is None:
             self.pose = guess
             self._publish_state(scan, Estimate(pose=guess, localized=False), reading)
             return False
-        self.relocalizer = self.relocalizing_from = None
+        self.relocalizing = None
         self._rebuild(self.mode, pose=fix.pose)
         self._event("relocalized", search=fix.search, fit=round(fix.fit, 3),
                     pose=[round(float(v), 4) for v in fix.pose])
@@ -356,9 +320,9 @@ class Worker:
                 if pair is not None:
                     self._step(pair)
                     if self.replay is not None:
-                        self.feed.mark_stepped(pair.scan_seq - 1)  # stepped or skipped, the feed goes on
+                        self.replay.taken(pair.scan_seq)  # stepped or skipped, the feed goes on
                 self._take_back_end()
-                if self._replay_played():
+                if self.replay is not None and self.replay.played_all():
                     self._finish_replay()
                 now = time.monotonic()
                 if now >= next_map:
@@ -382,7 +346,7 @@ class Worker:
         reading, scan = pair.odometry, pair.scan
         odometry = reading.pose
         self.ticks = reading.ticks
-        if self.relocalizer is not None and not self._relocalize(reading, scan):
+        if self.relocalizing is not None and not self._relocalize(reading, scan):
             return
         if self.anchor is None:
             self.anchor = (np.asarray(odometry, float).copy(), self.pose.copy())
@@ -394,11 +358,10 @@ class Worker:
         if updated or self.updated_at is None:
             self.updated_at = odometry
             self.map_changed = True
-        if updated and self.back_end is not None:
-            self.back_end.updated(self.estimator, scan)
-            self._draw_update(scan)
+        if updated:
+            self.loops.updated(self.estimator, scan)
         if self.replay is not None:
-            self.replay.stepped(pair.scan_seq - 1, updated, self.estimator.stats.updates - 1)
+            self.replay.stepped(pair.scan_seq, updated, self.estimator.stats.updates - 1)
         estimate = self.estimator.estimate()
         if not dead_reckons(self.estimator):
             estimate = self._dead_reckoned(estimate, relative(self.updated_at, odometry))
@@ -409,68 +372,34 @@ class Worker:
         self.rate_hz = self._step_rate.rate(now)
         self.trajectory.append(self.pose.copy())
         del self.trajectory[:-TRAJECTORY_KEEP]
-        self._publish_state(scan, self._corrected(estimate), reading)
-
-    def _corrected(self, estimate: Estimate) -> Estimate:
-        """The filter's estimate in the map frame: the back end's correction composed with it."""
-        if self.solved is None:
-            return estimate
-        c = self.solved.correction
-        particles = None if estimate.particles is None else compose(c, estimate.particles)
-        return replace(estimate, pose=compose(c, estimate.pose), particles=particles)
+        self._publish_state(scan, self.loops.corrected(estimate), reading)
 
     def _take_back_end(self) -> None:
-        """Use a finished solve: its correction, and its map with the updates since drawn in. A solve
-        that found more loop edges than any before is a loop closure (an event with the pose's jump)."""
-        result = self.back_end.take() if self.back_end is not None else None
-        if result is None:
-            return
-        best = best_updates(self.estimator).poses
-        if result.loop_edges > self.loop_edges_seen:
-            self.loop_edges_seen = result.loop_edges
-            self.loop_closures += 1
-            before = best[-1] if self.solved is None else compose(self.solved.correction, best[-1])
-            jump = compose(result.correction, best[-1]) - before
-            jump[2] = wrap_angle(jump[2])
-            self._event("loop_closed", closures=self.loop_closures, loop_edges=result.loop_edges,
+        """Use a finished solve (:class:`~app.worker.loop_closing.LoopClosing`); one that closed a
+        loop is an event with the published pose's jump."""
+        jump = self.loops.take(self.estimator)
+        if jump is not None:
+            self._event("loop_closed", closures=self.loops.closures, loop_edges=self.loops.solved.loop_edges,
                         seq=self.steps, jump=[round(float(v), 4) for v in jump])
-        self.solved = result
-        scans = self.back_end.scans
-        mount = self.estimator.mount
-        for k in range(len(result.poses), len(scans)):
-            result.grid.integrate(scans[k], mount.laser_poses(compose(result.correction, best[k])))
-        self.published_grid = result.grid
-
-    def _draw_update(self, scan) -> None:
-        """Draw the filter's newest update into the published map, at its corrected pose."""
-        if self.published_grid is not None:
-            laser = self.estimator.poses[self.estimator.best_index()]  # the filter's poses are the laser's
-            self.published_grid.integrate(scan, compose(self.solved.correction, laser))
-
-    def _replay_played(self) -> bool:
-        """Whether the whole log was played and every scan taken, with the back end still to run."""
-        return (self.replay is not None and self.replay.phase == "playing" and self.feed.ended.is_set()
-                and self.pairing.last_scan == len(self.replay.records))
 
     def _finish_replay(self) -> None:
         """The final optimisation: publish and write the optimised map and trajectory; mapping stops."""
-        self.replay.phase = "optimising"
+        recording = self.replay.recording
+        recording.phase = "optimising"
         self._event("replay_optimising", replay=self._replay_progress())
-        if self.back_end is not None:
-            self.back_end.wait()
+        self.loops.wait()
         if not isinstance(self.estimator, RBPFSlam):  # mapping paused: the map outgrew its limit
-            self.replay.phase = "failed"
+            recording.phase = "failed"
             self._event("replay_finished", replay=self._replay_progress(), loop_edges=0, paths=[])
             return
-        result = self.replay.finish(self.estimator)
-        self._attach_back_end(seeded=True)
+        result = recording.finish(self.estimator)
+        self.loops.attach(self.estimator, seeded=True)
         self.pose = result.poses[-1].copy()
         self.estimator, self.mapping = FrozenMap(result.grid, self.pose), False
         self.map_written = False
         self._publish_map()
         last = self.replay.records[-1]
-        odometry = LoggedOdometry(last.odom, last.stamp.ipc_time)
-        self._publish_state(last.scan, self.estimator.estimate(), odometry)
+        self._publish_state(last.scan, self.estimator.estimate(), self.replay.last_odometry())
         self._event("replay_finished", replay=self._replay_progress(), loop_edges=result.loop_edges,
                     paths=[str(p) for p in result.paths])
 
@@ -489,7 +418,7 @@ class Worker:
         return replace(estimate, pose=compose(estimate.pose, motion), particles=particles)
 
     def _published_map(self) -> OccupancyGrid | None:
-        return self.published_grid if self.published_grid is not None else self.estimator.occupancy_map()
+        return self.loops.published_map(self.estimator)
 
     def _publish_map(self) -> None:
         grid = self._published_map()
@@ -501,7 +430,7 @@ class Worker:
     def _exit(self) -> None:
         """Save the last map (PGM + YAML + PNG) and a final checkpoint; stop the grabbers."""
         s = self.settings
-        grid = self.published_grid if self.published_grid is not None else self._checkpoint().grid
+        grid = self.loops.published_grid if self.loops.published_grid is not None else self._checkpoint().grid
         if grid is not None and grid.data.size:
             if self.replay is None:
                 self._save(with_map=True)
