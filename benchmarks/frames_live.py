@@ -99,9 +99,12 @@ def main() -> None:
             poses, before, after = asyncio.run(pose_rate(server, args.freeze, pid))
             served = math.dist((poses[0]["x"], poses[0]["y"]), (poses[-1]["x"], poses[-1]["y"]))
             true = math.dist(before["true_pose"][:2], after["true_pose"][:2])
+            odometry = math.dist(before["frames"]["odom"][:2], after["frames"]["odom"][:2])
             print(f"pose messages, worker frozen {args.freeze:.1f} s: {len(poses) / args.freeze:.1f} /s, "
-                  f"{len({p['seq'] for p in poses})} worker step(s); served pose moved {served:.3f} m, "
-                  f"true pose {true:.3f} m; error at the end {errors(after)[0]:.3f} m")
+                  f"{len({p['seq'] for p in poses})} worker step(s); served pose moved {served:.3f} m "
+                  f"(first to last message), odometry {odometry:.3f} m, true pose {true:.3f} m "
+                  f"(status before and after); error before {errors(before)[0]:.3f} m, "
+                  f"at the end {errors(after)[0]:.3f} m")
         finally:
             server.stop()
 
