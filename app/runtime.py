@@ -25,10 +25,14 @@ from app.db.rooms import RoomStore
 from app.db.store import Store
 from app.db.zones import ZoneStore
 from app.navigation.navigator import Navigator
+from app.robot.odometry_ring import OdometryRing
 from app.robot.simulator import SimHandles, start_simulator, wait_ready
+from app.robot_link.link import RobotLink
 from app.rooms.service import RoomService
 from app.streaming import map_frames
 from app.streaming.hub import Hub
+from app.worker.frames import pose_in_map
+from app.worker.messages import WorkerMessage, WorkerState
 from app.worker.shared_map import MapSnapshot
 from app.worker.supervisor import WorkerSupervisor
 from app.zones.service import ZoneService
@@ -46,6 +50,10 @@ POSE_DECIMALS = 4
 
 def _rounded(array, decimals: int):
     return None if array is None else np.round(np.asarray(array, float), decimals).tolist()
+
+
+def _pose_fields(pose) -> dict:
+    return dict(zip(("x", "y", "yaw"), (round(float(v), POSE_DECIMALS) for v in pose), strict=True))
 
 
 def _terminate_self() -> None:
@@ -71,7 +79,9 @@ class Runtime:
         self.navigator.restrictions = self.zones.restrictions
         self.sim: SimHandles | None = None
         self.supervisor: WorkerSupervisor | None = None
-        self.latest: dict | None = None
+        self.odometry_ring = OdometryRing.create()  # written by the robot link (or a replay's feed)
+        self.link: RobotLink | None = None  # the serial port; none while a log is replayed
+        self.latest: WorkerState | None = None
         self.mode = settings.mode
         self.mapping = True
         self.replay: dict | None = None  # the worker's replay progress (see app.replay.recording)
@@ -94,13 +104,16 @@ class Runtime:
         start = (0.0, 0.0, 0.0)
         ready = None
         if s.simulation:
-            # The worker starts beside the simulator; its grabber opens the pty link once it exists.
+            # The link starts beside the simulator; its grabber opens the pty once it exists.
             self.sim, ready = start_simulator(s.world, s.seed, s.data_dir / SIM_SERIAL_LINK)
             port, slot = self.sim.port, self.sim.scans
             start = load_world(s.world).start  # map frame = world frame in simulation
         else:
             port, slot = s.serial_port, None
-        self.supervisor = WorkerSupervisor(s, port, slot, self._from_relay, start)
+        if not s.replay:
+            self.link = RobotLink(port, self.odometry_ring, s.serial_baud).start()
+        self.supervisor = WorkerSupervisor(s, self.odometry_ring, slot, self._from_relay, start,
+                                           self._correction)
         self.supervisor.start()
         if ready is not None:
             await asyncio.to_thread(wait_ready, self.sim, ready)
@@ -115,9 +128,11 @@ class Runtime:
             with contextlib.suppress(asyncio.CancelledError, Exception):
                 await task
         await self.hub.close_all()
+        with contextlib.suppress(Exception):
+            self.navigator.cancel()
+        if self.link is not None:
+            await asyncio.to_thread(self.link.stop)
         if self.supervisor is not None:
-            with contextlib.suppress(Exception):
-                self.navigator.cancel()
             await asyncio.to_thread(self.supervisor.stop)
         if self.sim is not None:
             await asyncio.to_thread(self.sim.shutdown)
@@ -127,21 +142,21 @@ class Runtime:
         gc.collect()
 
     # worker messages (the relay thread hands them to the loop)
-    def _from_relay(self, message: dict) -> None:
+    def _from_relay(self, message: WorkerMessage) -> None:
         loop = self._loop
         if loop is not None and not loop.is_closed():
             with contextlib.suppress(RuntimeError):
                 loop.call_soon_threadsafe(self._on_worker_message, message)
 
-    def _on_worker_message(self, message: dict) -> None:
-        if message["kind"] == "state":
+    def _on_worker_message(self, message: WorkerMessage) -> None:
+        if isinstance(message, WorkerState):
             self.latest = message
-            self.replay = message.get("replay") or self.replay
-            self.mode, self.mapping = message["mode"], message["mapping"]
+            self.replay = message.replay or self.replay
+            self.mode, self.mapping = message.mode, message.mapping
             self._state_rate.tick(time.monotonic())
             self._publish_state()
             return
-        event = {k: v for k, v in message.items() if k not in ("kind", "trace")}
+        event = {k: v for k, v in message.dict().items() if k != "trace"}
         if event["event"] == "warming":
             self._preparing(event)
             return
@@ -180,34 +195,48 @@ class Runtime:
         m = self.latest
         if m is None:
             return
-        pose = m["pose"]
-        base = {"t": m["t"], "seq": m["seq"]}
+        pose = m.pose
+        base = {"t": m.t, "seq": m.seq}
         hub = self.hub
-        hub.publish("pose", {**base, "x": round(float(pose[0]), POSE_DECIMALS),
-                             "y": round(float(pose[1]), POSE_DECIMALS),
-                             "yaw": round(float(pose[2]), POSE_DECIMALS), "localized": m["localized"]})
-        hub.publish("particles", {**base, "particles": _rounded(m["particles"], 3),
-                                  "weights": _rounded(m["weights"], 6)})
+        self._publish_pose()
+        hub.publish("map_to_odom", {**base, **_pose_fields(m.map_to_odom), "odom_t": m.odom_stamp})
+        hub.publish("particles", {**base, "particles": _rounded(m.particles, 3),
+                                  "weights": _rounded(m.weights, 6)})
         hub.publish("scan", {**base, "pose": _rounded(pose, POSE_DECIMALS),
-                             "points": _rounded(m["points"], SCAN_DECIMALS)})
-        if m.get("landmarks") is not None:
-            hub.publish("landmarks", {**base, "landmarks": _rounded(m["landmarks"], 3),
-                                      "covariances": _rounded(m["landmark_covariances"], 5)})
+                             "points": _rounded(m.points, SCAN_DECIMALS)})
+        if m.landmarks is not None:
+            hub.publish("landmarks", {**base, "landmarks": _rounded(m.landmarks, 3),
+                                      "covariances": _rounded(m.landmark_covariances, 5)})
         hub.publish("path", {"t": time.time(), **self.navigator.snapshot()})
         self._last_stream = time.monotonic()
 
+    def _publish_pose(self) -> None:
+        """The current pose (:meth:`current_pose`), stamped now; ``seq`` is the worker step whose
+        correction it uses, ``odom_t`` the stamp of the odometry it is composed with."""
+        m = self.latest
+        pose, odom_t = self._composed_pose()
+        self.hub.publish("pose", {"t": time.time(), "seq": m.seq, **_pose_fields(pose), "odom_t": odom_t,
+                                  "localized": m.localized})
+
     # pumps
     async def _stream_ticker(self) -> None:
-        """Keep pose/particles/scan/path at >= ``stream_hz`` even when the worker is not stepping."""
+        """The pose at ``stream_hz`` whatever the worker does (it moves with the odometry); particles,
+        scan and path again whenever the worker published nothing for a period."""
         period = 1.0 / self.settings.stream_hz
+        due = time.monotonic()
         while True:
-            await asyncio.sleep(period / 2)
-            if time.monotonic() - self._last_stream >= period:
+            due += period
+            await asyncio.sleep(max(0.0, due - time.monotonic()))
+            now = time.monotonic()
+            due = max(due, now - period)  # far behind (a busy machine): no burst to catch up
+            if now - self._last_stream >= period:
                 if self.latest is not None:
                     self._publish_state()
                 else:
                     self.hub.publish("path", {"t": time.time(), **self.navigator.snapshot()})
-                    self._last_stream = time.monotonic()
+                    self._last_stream = now
+            elif self.latest is not None:
+                self._publish_pose()
 
     async def _status_ticker(self) -> None:
         while True:
@@ -254,11 +283,36 @@ class Runtime:
         return self._grid_cache[1]
 
     def current_pose(self) -> np.ndarray | None:
-        return None if self.latest is None else np.asarray(self.latest["pose"], float)
+        """The worker's ``map -> odom`` correction composed with the newest odometry (REP-105): fresh
+        at odometry rate between SLAM steps, across worker restarts, and at once after a loop closure."""
+        return None if self.latest is None else self._composed_pose()[0]
+
+    def _composed_pose(self) -> tuple[np.ndarray, float]:
+        """:meth:`current_pose` and the stamp of the odometry it is made of (with a worker state)."""
+        latest = self.latest
+        odometry = self.odometry_ring.newest()
+        if odometry is None:
+            return np.asarray(latest.pose, float), latest.odom_stamp
+        return pose_in_map(latest.map_to_odom, odometry.pose), odometry.stamp
+
+    def _correction(self) -> np.ndarray | None:
+        """The newest ``map -> odom`` (for a restarted worker; none while a log is replayed)."""
+        latest = self.latest
+        return None if latest is None or self.settings.replay else latest.map_to_odom
+
+    def frames(self) -> dict | None:
+        """The transforms behind :meth:`current_pose`, for the status."""
+        latest, odometry = self.latest, self.odometry_ring.newest()
+        if latest is None:
+            return None
+        return {"map_to_odom": _rounded(latest.map_to_odom, POSE_DECIMALS), "map_to_odom_seq": latest.seq,
+                "odom": None if odometry is None else _rounded(odometry.pose, POSE_DECIMALS),
+                "odom_t": None if odometry is None else odometry.stamp}
 
     def send_velocity(self, v: float, w: float) -> None:
-        if self.supervisor is not None:
-            self.supervisor.send("velocity", float(v), float(w))
+        """Straight to the robot link (a replayed log cannot be steered: dropped)."""
+        if self.link is not None:
+            self.link.send_velocity(float(v), float(w))
 
     def state_rate(self) -> float:
         """Worker states received per second over the last few seconds."""
@@ -269,16 +323,16 @@ class Runtime:
         pose = self.current_pose()
         snap = self.map_snapshot
         health = self.supervisor.health.dict() if self.supervisor else {}
-        health["steps"] = latest["steps"] if latest else 0
-        health["rate_hz"] = round(latest["rate_hz"], 2) if latest else 0.0
-        health["state_t"] = latest["t"] if latest else None  # when the worker last published a pose
-        health["relocalizing"] = bool(latest.get("relocalizing")) if latest else False
+        health["steps"] = latest.steps if latest else 0
+        health["rate_hz"] = round(latest.rate_hz, 2) if latest else 0.0
+        health["state_t"] = latest.t if latest else None  # when the worker last published a pose
+        health["relocalizing"] = latest.relocalizing if latest else False
         nav = self.navigator
         return {
             "mode": self.mode,
             "mapping": self.mapping,
             "pose": None if pose is None else dict(zip(("x", "y", "yaw"), map(float, pose), strict=True)),
-            "localized": bool(latest["localized"]) if latest else False,
+            "localized": latest.localized if latest else False,
             "room": None if pose is None else self.rooms.name_at(float(pose[0]), float(pose[1])),
             "worker": health,
             "map": None if snap is None else {"width": snap.width, "height": snap.height,
@@ -292,7 +346,8 @@ class Runtime:
             "clients": len(self.hub.clients),
             "sim": self.settings.simulation,
             "replay": self.replay,
-            "loops": latest.get("loops") if latest else None,
+            "loops": latest.loops if latest else None,
+            "frames": self.frames(),
             "true_pose": None if self.sim is None else [float(v) for v in self.sim.true_pose()],
             "events": list(self.events)[-5:],
             "preparing": self.preparing,

@@ -110,12 +110,14 @@ def test_the_written_trajectory_scores_like_homebot_slam(replay):
 def test_the_stream_carries_the_replayed_poses_and_the_status_says_replay(replay):
     poses = [m for m in replay.messages if m["type"] == "pose"]
     assert len(poses) >= 20
-    final = Trajectory.load(replay.out / "trajectory.txt").poses
-    # the worker's step ``seq`` is the record's number at max speed; the filter's live pose is
-    # the optimised one up to the back end's correction (centimetres here: no loop in this slice)
-    stepped = [m for m in poses if 1 <= m["seq"] <= SCANS]
-    gaps = [np.hypot(m["x"] - final[m["seq"] - 1, 0], m["y"] - final[m["seq"] - 1, 1]) for m in stepped]
-    assert len(stepped) >= 20 and max(gaps) < 0.3
+    trajectory = Trajectory.load(replay.out / "trajectory.txt")
+    final, record = trajectory.poses, {stamp: i for i, stamp in enumerate(trajectory.times)}
+    # a pose is the worker's correction composed with the newest odometry, the log's at record
+    # ``odom_t``; the filter's live pose is the optimised one up to the back end's correction
+    # (centimetres here: no loop in this slice)
+    gaps = [np.hypot(m["x"] - final[record[m["odom_t"]], 0], m["y"] - final[record[m["odom_t"]], 1])
+            for m in poses]
+    assert len(gaps) >= 20 and max(gaps) < 0.3
     travelled = np.hypot(*np.diff(final[:, :2], axis=0).T).sum()
     assert travelled > 5.0  # a real building, not the simulated flat's start pose
     statuses = [m for m in replay.messages if m["type"] == "status"]

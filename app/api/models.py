@@ -206,6 +206,8 @@ class Status(BaseModel):
     sim: bool
     replay: dict | None = None
     loops: dict | None = None
+    #: REP-105 frames: {"map_to_odom": [x, y, yaw], "map_to_odom_seq", "odom": [x, y, yaw], "odom_t"}
+    frames: dict | None = None
     true_pose: list[float] | None
     events: list[dict]
     preparing: dict | None = None  # {"done", "total", "stage"} while the worker warms up its kernels

@@ -40,3 +40,14 @@ class Latest(Generic[T]):
             if not self._cond.wait_for(lambda: self._seq > seq, timeout):
                 return None
             return self._seq, self._value
+
+
+class Fanout:
+    """Puts every value into each of ``outputs`` (anything with ``put``), in order."""
+
+    def __init__(self, *outputs) -> None:
+        self.outputs = outputs
+
+    def put(self, value) -> None:
+        for output in self.outputs:
+            output.put(value)

@@ -1,8 +1,9 @@
 """The navigator: one goal at a time, planned on the live map, followed, replanned as the map grows.
 
 Runs as an asyncio task in the server; planning runs in a thread (the A* kernel
-releases the GIL), never in the event loop. Velocity commands go to the worker,
-which writes them to the robot's serial link.
+releases the GIL), never in the event loop. The pose it follows is the server's
+(``map -> odom`` composed with the newest odometry, fresh at odometry rate); velocity
+commands go straight to the robot link (:mod:`app.robot_link.link`), not through the worker.
 """
 
 from __future__ import annotations

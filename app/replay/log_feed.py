@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from app.grabbers.odometry_history import OdometryHistory
-from app.grabbers.shared import Latest
+from app.grabbers.shared import Fanout, Latest
 from slam_core.io.carmen import LaserRecord, TruncatedLogError, laser_records
 
 #: How often a paused feed looks at its stop flag (s).
@@ -57,7 +57,7 @@ def replay_name(log: str) -> str:
 class LogReplay:
     """A thread feeding ``records`` to ``odometry`` and ``scans``; see the module docstring."""
 
-    def __init__(self, records: list[LaserRecord], speed: float | None, odometry: OdometryHistory,
+    def __init__(self, records: list[LaserRecord], speed: float | None, odometry: OdometryHistory | Fanout,
                  scans: Latest):
         if speed is not None and speed <= 0:
             raise ValueError(f"replay speed must be positive, got {speed}")
@@ -79,9 +79,6 @@ class LogReplay:
     def stop(self) -> None:
         self._stop.set()
         self._thread.join(2 * POLL_S + 1.0)
-
-    def send_velocity(self, v: float, w: float) -> None:
-        """A log cannot be steered: velocity commands are dropped (the API refuses them anyway)."""
 
     def mark_stepped(self, index: int) -> None:
         """The worker stepped record ``index`` (a ``--speed max`` feed then plays the next one)."""

@@ -1,7 +1,7 @@
 """The simulated robot in its own process: physics, lidar, and the virtual MCU on a pty.
 
 The server talks to it exactly as to a real robot: odometry and velocity commands go
-over the serial link (the worker's odometry grabber opens the pty path with pyserial),
+over the serial link (the server's robot link opens the pty path with pyserial),
 scans arrive in a shared slot (:mod:`app.robot.scan_slot`); a real robot's come from
 ``settings.sensor_source``.
 Ground truth is published in a shared array for status and tests only. SIGUSR1 cuts the

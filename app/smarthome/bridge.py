@@ -27,6 +27,7 @@ from app.smarthome.link import MqttLink
 from app.smarthome.robot_state import DOCK, robot_state
 from app.smarthome.topics import Topics
 from app.worker.estimators import available_modes
+from app.worker.messages import SetMode
 from app.zones.service import ZoneError, replan_for_zones
 from slam_core.io.render import map_image
 from slam_core.sim.world import load_world
@@ -175,7 +176,7 @@ class MqttBridge:
             modes = available_modes()
             if command.mode not in modes:
                 raise cmd.CommandError(f"mode {command.mode!r} is not available (have: {', '.join(modes)})")
-            if not runtime.supervisor.send("mode", command.mode, None, None, False):
+            if not runtime.supervisor.send(SetMode(command.mode)):
                 raise cmd.CommandError("the worker is not accepting commands")
             runtime.mode = command.mode
             return {"mode": command.mode}

@@ -1,9 +1,11 @@
 """The SLAM worker process: synchronised estimator steps, published state, map and checkpoints.
 
-Each new scan is stepped once, with the odometry at its own stamp (:mod:`app.worker.pairing`);
+Each new scan is stepped once, with the odometry at its own stamp (:mod:`app.worker.pairing`),
+read from the server's odometry ring (the worker never opens the serial port);
 with ``settings.replay`` a CARMEN log takes the robot's place (:mod:`app.replay`). A mapping
 filter has the loop-closing back end beside it (:mod:`app.worker.live_back_end`). After each
-step the pose, particle cloud and scan go to the server on a small queue; the map goes into
+step a :class:`~app.worker.messages.WorkerState` (pose, its ``map -> odom`` correction, particle
+cloud, scan) goes to the server on a small queue; the map goes into
 shared memory at ``map_hz``, with per-tile change stamps (:mod:`app.worker.shared_map`), so
 the map is never pickled.
 """
@@ -18,19 +20,17 @@ import signal
 import threading
 import time
 import traceback
-from dataclasses import asdict, dataclass, replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
 from app.core.config import Settings
 from app.core.rate import SlidingRate
-from app.grabbers.odometry_grabber import OdometryGrabber
 from app.grabbers.odometry_history import OdometryHistory
+from app.grabbers.ring_odometry_grabber import RingOdometryGrabber
 from app.grabbers.scan_grabber import ScanGrabber, load_sensor_source
 from app.grabbers.shared import Latest
-from app.replay.log_feed import LogReplay, read_laser_records, replay_name
-from app.replay.recording import ReplayRecording
 from app.worker.checkpoint import load_checkpoint, save_exit_map, save_pose, save_snapshot
 from app.worker.estimators import (
     Checkpoint,
@@ -41,19 +41,32 @@ from app.worker.estimators import (
     map_with_hits,
     warm_up,
 )
+from app.worker.frames import map_to_odom
 from app.worker.lifeline import bind_to_parent
-from app.worker.live_back_end import BackEndResult, LiveBackEnd
 from app.worker.lockfile import acquire_worker_lock
+from app.worker.loop_closing import LoopClosing
 from app.worker.map_limits import check_room, map_box, scan_reach
+from app.worker.messages import (
+    Command,
+    ResumeSession,
+    SaveSession,
+    SetMapping,
+    SetMode,
+    SetPose,
+    Shutdown,
+    WorkerEvent,
+    WorkerState,
+    waiting_commands,
+)
 from app.worker.pairing import Pair, StampedPairing
 from app.worker.relocalize import Relocalizer
+from app.worker.relocalizing import Relocalizing
+from app.worker.replay_driver import ReplayDriver
 from app.worker.shared_map import MapTooLarge, SharedMap, grid_cells
-from slam_core.datasets import resolve_log
 from slam_core.estimator import Estimate
-from slam_core.geometry import compose, relative, transform_points, wrap_angle
+from slam_core.geometry import compose, relative, transform_points
 from slam_core.io.ros_map import load_map
 from slam_core.occupancy_grid import OccupancyGrid, SensorModel
-from slam_core.pipelines.log_slam import best_updates
 from slam_core.rbpf.config import RBPFConfig
 from slam_core.rbpf.filter import RBPFSlam
 from slam_core.session import MappingSession, load_session, save_session
@@ -75,10 +88,12 @@ class WorkerSpec:
 
     settings: dict
     shm_name: str
-    port: str
     restart: int = 0
     initial_pose: tuple[float, float, float] = (0.0, 0.0, 0.0)
     parent_pid: int = 0  # the server; the worker ends when it dies
+    #: The last worker's ``map -> odom`` correction: with the odometry, where a restarted worker
+    #: first looks for the robot (the link kept the odometry going, and maybe the robot driving).
+    map_to_odom: tuple[float, float, float] | None = None
 
 
 def put_newest(q, item) -> None:
@@ -90,7 +105,7 @@ def put_newest(q, item) -> None:
 class Worker:
     """The loop run by :func:`worker_main` (a class so its parts stay small)."""
 
-    def __init__(self, spec: WorkerSpec, commands, states, scan_slot):
+    def __init__(self, spec: WorkerSpec, commands, states, scan_slot, odometry_ring):
         self.settings = Settings(**spec.settings)
         self.spec = spec
         self.commands = commands
@@ -98,23 +113,24 @@ class Worker:
         self.stop = threading.Event()
         s = self.settings
         self.shm = SharedMap(s.map_capacity_cells, s.tile_size, name=spec.shm_name)
-        self.wakeup = threading.Event()
         self.scans = Latest()
-        self.replay: ReplayRecording | None = None
+        self.replay: ReplayDriver | None = None
         self.anchor: tuple[np.ndarray, np.ndarray] | None = None
         if s.replay:
-            initial_pose = self._open_replay(s.replay_dir)
+            self.replay = ReplayDriver(s, self.scans, odometry_ring)
+            self.sources, self.pairing = [self.replay.feed], self.replay.pairing
+            self.anchor = (np.zeros(3), np.zeros(3))  # the log's odometry frame is the map frame, as offline
+            initial_pose = self.replay.start_odometry
             # a replay starts afresh and leaves the robot's checkpoints alone
             checkpoint, self.generation = None, 0
         else:
             history = OdometryHistory()
-            self.odometry_grabber = OdometryGrabber(spec.port, s.serial_baud, output=history)
+            odometry_grabber = RingOdometryGrabber(odometry_ring, history)
             if scan_slot is not None:
-                self.scan_grabber = ScanGrabber(slot=scan_slot, output=self.scans)
+                scan_grabber = ScanGrabber(slot=scan_slot, output=self.scans)
             else:
-                self.scan_grabber = ScanGrabber(source=load_sensor_source(s.sensor_source), output=self.scans)
-            self.link = self.odometry_grabber
-            self.sources = [self.odometry_grabber, self.scan_grabber]
+                scan_grabber = ScanGrabber(source=load_sensor_source(s.sensor_source), output=self.scans)
+            self.sources = [odometry_grabber, scan_grabber]
             self.pairing = StampedPairing(history, self.scans)
             initial_pose = spec.initial_pose
             restored = load_checkpoint(s.checkpoint_dir, s.map_capacity_cells)
@@ -133,9 +149,8 @@ class Worker:
             self._event("error", detail=str(exc))
             self.mode = "mapping"
             self.estimator = make_estimator("mapping", s, checkpoint)
-        self.loop_closures = self.loop_edges_seen = 0
-        self.session_prior: MappingSession | None = None  # carried over when the estimator is rebuilt
-        self._attach_back_end(seeded=checkpoint.grid is not None)
+        self.loops = LoopClosing()
+        self.loops.attach(self.estimator, seeded=checkpoint.grid is not None)
         self.updated_at: np.ndarray | None = None  # re-anchored odometry at the estimator's last update
         self.ticks: tuple[int, int] | None = None  # encoder counts of the last step
         self.steps = 0
@@ -148,49 +163,16 @@ class Worker:
         self.kept_grid, self.kept_hits = checkpoint.grid, checkpoint.hit_sums
         self.map_changed = False  # since the last snapshot
         # A restored map: find the robot in it before anything is written (app.worker.relocalize).
-        self.relocalizer = self._relocalizer() if was_restored else None
-        self.relocalizing_from: tuple[np.ndarray, np.ndarray] | None = None  # (odometry, pose) at the start
-
-    def _open_replay(self, replay_dir: Path) -> np.ndarray:
-        """The log takes the robot's place; returns the first record's odometry, the start pose."""
-        s = self.settings
-        path = resolve_log(s.replay)
-        records, warnings = read_laser_records(path)
-        name = replay_name(s.replay)
-        history = OdometryHistory()
-        self.feed = LogReplay(records, s.replay_speed, history, self.scans)
-        self.replay = ReplayRecording(path, name, records, replay_dir / name, s.replay_speed, s.seed,
-                                      warnings)
-        self.link = self.feed
-        self.sources = [self.feed]
-        self.pairing = StampedPairing(history, self.scans)
-        self.anchor = (np.zeros(3), np.zeros(3))  # the log's odometry frame is the map frame, as offline
-        return records[0].odom
-
-    def _attach_back_end(self, seeded: bool) -> None:
-        """The live back end of a particle filter that starts from an empty map or goes on from a
-        mapping session (it needs every scan of the map; a filter resumed on a checkpoint's map
-        alone goes on without)."""
-        prior = self.session_prior
-        self.back_end = None if seeded and prior is None else LiveBackEnd.attached_to(self.estimator, prior)
-        self.solved: BackEndResult | None = None
-        self.published_grid: OccupancyGrid | None = None  # optimised map + updates since
-
-    def _map_pose(self) -> np.ndarray:
-        """The robot's pose in the map frame (the back end's correction applied)."""
-        return self.pose.copy() if self.solved is None else compose(self.solved.correction, self.pose)
-
-    def _session(self) -> MappingSession | None:
-        """The mapping session so far: the back end's updates, else the one carried over."""
-        if self.back_end is not None and isinstance(self.estimator, RBPFSlam):
-            return self.back_end.session(self.estimator, self.solved, self._map_pose()) or self.session_prior
-        return self.session_prior
+        correction = None if spec.map_to_odom is None else np.array(spec.map_to_odom, float)
+        self.relocalizing = self._relocalizing(correction) if was_restored else None
 
     # messages to the server
     def _event(self, event: str, **fields) -> None:
-        put_newest(self.states, {"kind": "event", "event": event, "t": time.time(), **fields})
+        put_newest(self.states, WorkerEvent(event, time.time(), fields))
 
-    def _publish_state(self, scan, estimate) -> None:
+    def _publish_state(self, scan, estimate, odometry) -> None:
+        """The estimate after a step with ``odometry`` (the raw reading it used, in the link's odom
+        frame), and the ``map -> odom`` correction between the two (:mod:`app.worker.frames`)."""
         s = self.settings
         particles = estimate.particles
         weights = estimate.weights
@@ -200,22 +182,19 @@ class Worker:
             weights = weights[::stride] if weights is not None else None
         pose = np.asarray(estimate.pose, float)
         points = transform_points(pose, scan.points()).astype(np.float32)
-        put_newest(self.states, {
-            "kind": "state", "t": time.time(), "seq": self.steps, "pose": pose,
-            "localized": bool(estimate.localized),
-            "particles": None if particles is None else np.asarray(particles, np.float32),
-            "weights": None if weights is None else np.asarray(weights, np.float32),
-            "points": points, "mode": self.mode, "mapping": self.mapping, "steps": self.steps,
-            "relocalizing": self.relocalizer is not None,
-            "rate_hz": self.rate_hz,
-            "landmarks": estimate.landmarks, "landmark_covariances": estimate.landmark_covariances,
-            "replay": self._replay_progress(),
-            "loops": {"closures": self.loop_closures, "edges": self.solved.loop_edges if self.solved else 0,
-                      "solves": self.back_end.solves if self.back_end else 0},
-        })
+        put_newest(self.states, WorkerState(
+            t=time.time(), seq=self.steps, pose=pose, localized=bool(estimate.localized),
+            map_to_odom=map_to_odom(pose, odometry.pose), odom_stamp=float(odometry.stamp),
+            mode=self.mode, mapping=self.mapping, steps=self.steps, rate_hz=self.rate_hz,
+            relocalizing=self.relocalizing is not None,
+            particles=None if particles is None else np.asarray(particles, np.float32),
+            weights=None if weights is None else np.asarray(weights, np.float32),
+            points=points, landmarks=estimate.landmarks, landmark_covariances=estimate.landmark_covariances,
+            replay=self._replay_progress(), loops=self.loops.stats(),
+        ))
 
     def _replay_progress(self) -> dict | None:
-        return None if self.replay is None else asdict(self.replay.progress(self.feed.played))
+        return None if self.replay is None else self.replay.progress()
 
     # estimator management
     def _checkpoint(self, with_map: bool = True) -> Checkpoint:
@@ -241,11 +220,11 @@ class Worker:
         """Swap the estimator, keeping the map frame continuous (odometry re-anchored). With the
         back end's optimised map the new estimator goes on in it, and the mapping session so far
         is carried over (a new map drops it)."""
-        self.session_prior = self._session() if grid is None else None
+        prior = self.loops.session(self.estimator, self.pose) if grid is None else None
         current = self._checkpoint()
-        if self.solved is not None and grid is None:
-            current = replace(current, grid=self.published_grid, hit_sums=None,
-                              pose=self._map_pose() if pose is None else current.pose)
+        if self.loops.solved is not None and grid is None:
+            current = replace(current, grid=self.loops.published_grid, hit_sums=None,
+                              pose=self.loops.map_pose(self.pose))
         checkpoint = Checkpoint(
             mode, current.pose if pose is None else np.asarray(pose, float),
             current.grid if grid is None else grid,
@@ -257,51 +236,45 @@ class Worker:
         self.pose, self.map_name = checkpoint.pose, checkpoint.map_name
         self.kept_grid, self.kept_hits = checkpoint.grid, checkpoint.hit_sums
         self.map_changed = True
-        self._attach_back_end(seeded=checkpoint.grid is not None)
+        self.loops.attach(self.estimator, seeded=checkpoint.grid is not None, prior=prior)
         self.anchor = None
         self.updated_at = None
         self.map_written = False
 
-    def _handle(self, command: tuple) -> None:
-        name, *args = command
-        if name == "velocity":
-            self.link.send_velocity(*args)
+    def _handle(self, command: Command) -> None:
+        if isinstance(command, Shutdown):
+            self.stop.set()
             return
         try:
-            if name == "mode":
-                mode, yaml_path, map_name, new_map = args
-                grid = load_map(yaml_path) if yaml_path else None
-                if new_map:
+            if isinstance(command, SetMode):
+                grid = load_map(command.yaml_path) if command.yaml_path else None
+                if command.new_map:
                     grid = OccupancyGrid(self.settings.resolution)  # empty: mapping starts afresh
-                self._rebuild(mode, grid=grid, mapping=True, map_name=map_name)
+                self._rebuild(command.mode, grid=grid, mapping=True, map_name=command.map_name)
                 # Back to mapping: register the scans before drawing them (other modes need no map
                 # or, on a loaded map, localize by themselves).
-                self._start_relocalizing(mode == "mapping" and not new_map)
-            elif name == "pose":
-                pose = np.asarray(args, float)
+                self._start_relocalizing(command.mode == "mapping" and not command.new_map)
+            elif isinstance(command, SetPose):
+                pose = np.array([command.x, command.y, command.yaw], float)
                 self._check_room(pose, SensorModel().usable_range)
-                if self.relocalizer is not None:  # the person's pose becomes the search's guess
-                    self.pose, self.relocalizing_from = pose, None
+                if self.relocalizing is not None:  # the person's pose becomes the search's guess
+                    self.pose = pose
+                    self.relocalizing.restart()
                 else:
                     self._rebuild(self.mode, pose=pose)
-            elif name == "mapping":
-                self._rebuild("mapping", mapping=bool(args[0]))
-                self._start_relocalizing(bool(args[0]))
-            elif name == "save_session":
-                self._save_session(Path(args[0]))
-            elif name == "resume_session":
-                self._resume_session(load_session(Path(args[0])))
-            elif name == "shutdown":
-                self.stop.set()
-                return
-            else:
-                raise ValueError(f"unknown worker command {name!r}")
+            elif isinstance(command, SetMapping):
+                self._rebuild("mapping", mapping=command.enabled)
+                self._start_relocalizing(command.enabled)
+            elif isinstance(command, SaveSession):
+                self._save_session(Path(command.path))
+            elif isinstance(command, ResumeSession):
+                self._resume_session(load_session(Path(command.path)))
             self._event("changed", mode=self.mode, mapping=self.mapping)
         except (ModeUnavailable, ValueError, OSError) as exc:
-            self._event("error", detail=f"{name}: {exc}")
+            self._event("error", detail=f"{type(command).__name__}: {exc}")
 
     def _save_session(self, path: Path) -> None:
-        session = self._session()
+        session = self.loops.session(self.estimator, self.pose)
         if session is None:
             raise ValueError("no mapping session to save: the loop-closing back end runs from a new map "
                              "or a resumed session on")
@@ -314,8 +287,7 @@ class Worker:
             raise ValueError(f"the session's resolution {session.config.resolution} m is not the server's "
                              f"{self.settings.resolution} m")
         self._rebuild("mapping", grid=session.grid(), pose=session.end_pose, mapping=True)
-        self.session_prior = session
-        self._attach_back_end(seeded=True)
+        self.loops.attach(self.estimator, seeded=True, prior=session)
         self._start_relocalizing()
         self._event("session_resumed", updates=len(session.scans))
 
@@ -338,43 +310,29 @@ class Worker:
 
     def _start_relocalizing(self, needed: bool = True) -> None:
         """Find the robot in the current map before the next scan is drawn (or stop looking)."""
-        self.relocalizer = self._relocalizer() if needed else None
-        self.relocalizing_from = None
+        self.relocalizing = self._relocalizing() if needed else None
 
-    def _relocalizer(self) -> Relocalizer | None:
+    def _relocalizing(self, correction: np.ndarray | None = None) -> Relocalizing | None:
         current = self._checkpoint()
         if current.grid is None or not current.grid.data.size:
             return None
-        return Relocalizer(current.grid, current.hit_sums, RBPFConfig(resolution=current.grid.resolution))
+        config = RBPFConfig(resolution=current.grid.resolution)
+        return Relocalizing(Relocalizer(current.grid, current.hit_sums, config), correction)
 
-    def _relocalize(self, odometry, scan) -> bool:
-        """Look for the robot in the restored map; until found, publish the guess and map nothing.
-
-        The guess is the last pose carried on by the odometry since the start. Once found, the
-        estimator is rebuilt at the pose found, so mapping continues the same map, in register.
-        """
-        if self.relocalizing_from is None:
-            self.relocalizing_from = (np.asarray(odometry, float).copy(), self.pose.copy())
-        odo0, pose0 = self.relocalizing_from
-        guess = compose(pose0, relative(odo0, odometry))
-        fix = self.relocalizer.locate(scan, guess)
+    def _relocalize(self, reading, scan) -> bool:
+        """Look for the robot in the restored map; until found, publish the guess and map nothing
+        (:mod:`app.worker.relocalizing`). Once found, the estimator is rebuilt at the pose found, so
+        mapping continues the same map, in register."""
+        fix, guess = self.relocalizing.locate(reading.pose, scan, self.pose)
         if fix is None:
             self.pose = guess
-            self._publish_state(scan, Estimate(pose=guess, localized=False))
+            self._publish_state(scan, Estimate(pose=guess, localized=False), reading)
             return False
-        self.relocalizer = self.relocalizing_from = None
+        self.relocalizing = None
         self._rebuild(self.mode, pose=fix.pose)
         self._event("relocalized", search=fix.search, fit=round(fix.fit, 3),
                     pose=[round(float(v), 4) for v in fix.pose])
         return True
-
-    def _drain_commands(self) -> None:
-        while True:
-            try:
-                command = self.commands.get_nowait()
-            except queue.Empty:
-                return
-            self._handle(command)
 
     # the loop
     def run(self) -> None:
@@ -387,14 +345,15 @@ class Worker:
         next_map = next_checkpoint = next_pose_save = time.monotonic()
         try:
             while not self.stop.is_set():
-                self._drain_commands()
+                for command in waiting_commands(self.commands):
+                    self._handle(command)
                 pair = self.pairing.next(WAIT_S)
                 if pair is not None:
                     self._step(pair)
                     if self.replay is not None:
-                        self.feed.mark_stepped(pair.scan_seq - 1)  # stepped or skipped, the feed goes on
+                        self.replay.taken(pair.scan_seq)  # stepped or skipped, the feed goes on
                 self._take_back_end()
-                if self._replay_played():
+                if self.replay is not None and self.replay.played_all():
                     self._finish_replay()
                 now = time.monotonic()
                 if now >= next_map:
@@ -418,7 +377,7 @@ class Worker:
         reading, scan = pair.odometry, pair.scan
         odometry = reading.pose
         self.ticks = reading.ticks
-        if self.relocalizer is not None and not self._relocalize(odometry, scan):
+        if self.relocalizing is not None and not self._relocalize(reading, scan):
             return
         if self.anchor is None:
             self.anchor = (np.asarray(odometry, float).copy(), self.pose.copy())
@@ -430,11 +389,10 @@ class Worker:
         if updated or self.updated_at is None:
             self.updated_at = odometry
             self.map_changed = True
-        if updated and self.back_end is not None:
-            self.back_end.updated(self.estimator, scan)
-            self._draw_update(scan)
+        if updated:
+            self.loops.updated(self.estimator, scan)
         if self.replay is not None:
-            self.replay.stepped(pair.scan_seq - 1, updated, self.estimator.stats.updates - 1)
+            self.replay.stepped(pair.scan_seq, updated, self.estimator.stats.updates - 1)
         estimate = self.estimator.estimate()
         if not dead_reckons(self.estimator):
             estimate = self._dead_reckoned(estimate, relative(self.updated_at, odometry))
@@ -445,66 +403,34 @@ class Worker:
         self.rate_hz = self._step_rate.rate(now)
         self.trajectory.append(self.pose.copy())
         del self.trajectory[:-TRAJECTORY_KEEP]
-        self._publish_state(scan, self._corrected(estimate))
-
-    def _corrected(self, estimate: Estimate) -> Estimate:
-        """The filter's estimate in the map frame: the back end's correction composed with it."""
-        if self.solved is None:
-            return estimate
-        c = self.solved.correction
-        particles = None if estimate.particles is None else compose(c, estimate.particles)
-        return replace(estimate, pose=compose(c, estimate.pose), particles=particles)
+        self._publish_state(scan, self.loops.corrected(estimate), reading)
 
     def _take_back_end(self) -> None:
-        """Use a finished solve: its correction, and its map with the updates since drawn in. A solve
-        that found more loop edges than any before is a loop closure (an event with the pose's jump)."""
-        result = self.back_end.take() if self.back_end is not None else None
-        if result is None:
-            return
-        best = best_updates(self.estimator).poses
-        if result.loop_edges > self.loop_edges_seen:
-            self.loop_edges_seen = result.loop_edges
-            self.loop_closures += 1
-            before = best[-1] if self.solved is None else compose(self.solved.correction, best[-1])
-            jump = compose(result.correction, best[-1]) - before
-            jump[2] = wrap_angle(jump[2])
-            self._event("loop_closed", closures=self.loop_closures, loop_edges=result.loop_edges,
+        """Use a finished solve (:class:`~app.worker.loop_closing.LoopClosing`); one that closed a
+        loop is an event with the published pose's jump."""
+        jump = self.loops.take(self.estimator)
+        if jump is not None:
+            self._event("loop_closed", closures=self.loops.closures, loop_edges=self.loops.solved.loop_edges,
                         seq=self.steps, jump=[round(float(v), 4) for v in jump])
-        self.solved = result
-        scans = self.back_end.scans
-        mount = self.estimator.mount
-        for k in range(len(result.poses) - self.back_end.prior_updates, len(scans)):
-            result.grid.integrate(scans[k], mount.laser_poses(compose(result.correction, best[k])))
-        self.published_grid = result.grid
-
-    def _draw_update(self, scan) -> None:
-        """Draw the filter's newest update into the published map, at its corrected pose."""
-        if self.published_grid is not None:
-            laser = self.estimator.poses[self.estimator.best_index()]  # the filter's poses are the laser's
-            self.published_grid.integrate(scan, compose(self.solved.correction, laser))
-
-    def _replay_played(self) -> bool:
-        """Whether the whole log was played and every scan taken, with the back end still to run."""
-        return (self.replay is not None and self.replay.phase == "playing" and self.feed.ended.is_set()
-                and self.pairing.last_scan == len(self.replay.records))
 
     def _finish_replay(self) -> None:
         """The final optimisation: publish and write the optimised map and trajectory; mapping stops."""
-        self.replay.phase = "optimising"
+        recording = self.replay.recording
+        recording.phase = "optimising"
         self._event("replay_optimising", replay=self._replay_progress())
-        if self.back_end is not None:
-            self.back_end.wait()
+        self.loops.wait()
         if not isinstance(self.estimator, RBPFSlam):  # mapping paused: the map outgrew its limit
-            self.replay.phase = "failed"
+            recording.phase = "failed"
             self._event("replay_finished", replay=self._replay_progress(), loop_edges=0, paths=[])
             return
-        result = self.replay.finish(self.estimator)
-        self._attach_back_end(seeded=True)
+        result = recording.finish(self.estimator)
+        self.loops.attach(self.estimator, seeded=True)
         self.pose = result.poses[-1].copy()
         self.estimator, self.mapping = FrozenMap(result.grid, self.pose), False
         self.map_written = False
         self._publish_map()
-        self._publish_state(self.replay.records[-1].scan, self.estimator.estimate())
+        last = self.replay.records[-1]
+        self._publish_state(last.scan, self.estimator.estimate(), self.replay.last_odometry())
         self._event("replay_finished", replay=self._replay_progress(), loop_edges=result.loop_edges,
                     paths=[str(p) for p in result.paths])
 
@@ -523,7 +449,7 @@ class Worker:
         return replace(estimate, pose=compose(estimate.pose, motion), particles=particles)
 
     def _published_map(self) -> OccupancyGrid | None:
-        return self.published_grid if self.published_grid is not None else self.estimator.occupancy_map()
+        return self.loops.published_map(self.estimator)
 
     def _publish_map(self) -> None:
         grid = self._published_map()
@@ -534,10 +460,8 @@ class Worker:
 
     def _exit(self) -> None:
         """Save the last map (PGM + YAML + PNG) and a final checkpoint; stop the grabbers."""
-        with contextlib.suppress(Exception):
-            self.link.send_velocity(0.0, 0.0)
         s = self.settings
-        grid = self.published_grid if self.published_grid is not None else self._checkpoint().grid
+        grid = self.loops.published_grid if self.loops.published_grid is not None else self._checkpoint().grid
         if grid is not None and grid.data.size:
             if self.replay is None:
                 self._save(with_map=True)
@@ -548,7 +472,7 @@ class Worker:
         self.shm.close()
 
 
-def worker_main(spec: WorkerSpec, commands, states, scan_slot) -> None:
+def worker_main(spec: WorkerSpec, commands, states, scan_slot, odometry_ring) -> None:
     """Process entry point: SIGINT/SIGTERM stop the loop, which then saves the map."""
     logging.basicConfig(level=logging.WARNING)
     worker = None
@@ -563,11 +487,10 @@ def worker_main(spec: WorkerSpec, commands, states, scan_slot) -> None:
     try:
         lock = acquire_worker_lock(Path(spec.settings["data_dir"]))
         if lock.ended_pid is not None:
-            put_newest(states, {"kind": "event", "event": "ended_stale_worker", "t": time.time(),
-                                "pid": lock.ended_pid})
-        worker = Worker(spec, commands, states, scan_slot)
+            put_newest(states, WorkerEvent("ended_stale_worker", time.time(), {"pid": lock.ended_pid}))
+        worker = Worker(spec, commands, states, scan_slot, odometry_ring)
         worker.run()
     except Exception as exc:
-        put_newest(states, {"kind": "event", "event": "crashed", "t": time.time(),
-                            "detail": f"{type(exc).__name__}: {exc}", "trace": traceback.format_exc()})
+        put_newest(states, WorkerEvent("crashed", time.time(), {"detail": f"{type(exc).__name__}: {exc}",
+                                                                 "trace": traceback.format_exc()}))
         raise

@@ -19,9 +19,13 @@ from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+import numpy as np
+
 from app.core.config import Settings
+from app.robot.odometry_ring import OdometryRing
 from app.robot.scan_slot import ScanSlot
 from app.worker.checkpoint import quarantine_newest
+from app.worker.messages import Command, WorkerEvent, WorkerMessage, accepted
 from app.worker.process import WorkerSpec, worker_main
 from app.worker.shared_map import SharedMap
 
@@ -71,15 +75,18 @@ class WorkerHealth:
 
 
 class WorkerSupervisor:
-    """Start/stop the worker; ``on_message(dict)`` is called from the relay thread for each message."""
+    """Start/stop the worker; ``on_message`` is called from the relay thread for each
+    :class:`~app.worker.messages.WorkerState` and :class:`~app.worker.messages.WorkerEvent`."""
 
-    def __init__(self, settings: Settings, port: str, scan_slot: ScanSlot | None,
-                 on_message: Callable[[dict], None], initial_pose=(0.0, 0.0, 0.0)):
+    def __init__(self, settings: Settings, odometry_ring: OdometryRing, scan_slot: ScanSlot | None,
+                 on_message: Callable[[WorkerMessage], None], initial_pose=(0.0, 0.0, 0.0),
+                 correction: Callable[[], np.ndarray | None] = lambda: None):
         self.settings = settings
-        self.port = port
+        self.odometry_ring = odometry_ring
         self.scan_slot = scan_slot
         self.on_message = on_message
         self.initial_pose = tuple(float(v) for v in initial_pose)
+        self.correction = correction  # the newest map -> odom, handed to a restarted worker
         self.ctx = mp.get_context("spawn")
         self.shared_map = SharedMap(settings.map_capacity_cells, settings.tile_size, create=True)
         self.health = WorkerHealth()
@@ -104,10 +111,13 @@ class WorkerSupervisor:
             self._close_queues()
             self._commands = self.ctx.Queue(COMMANDS_MAX)
             self._states = self.ctx.Queue(STATES_MAX)
-            spec = WorkerSpec(self.settings.model_dump(), self.shared_map.name, self.port,
-                              self.health.restarts, self.initial_pose, os.getpid())
+            correction = self.correction()
+            spec = WorkerSpec(self.settings.model_dump(), self.shared_map.name, self.health.restarts,
+                              self.initial_pose, os.getpid(),
+                              None if correction is None else tuple(float(v) for v in correction))
             proc = self.ctx.Process(target=worker_main, name="homebot-worker", daemon=True,
-                                    args=(spec, self._commands, self._states, self.scan_slot))
+                                    args=(spec, self._commands, self._states, self.scan_slot,
+                                          self.odometry_ring))
             proc.start()
             self._process = proc
             self.health.alive, self.health.pid, self.health.started_at = True, proc.pid, time.time()
@@ -144,7 +154,7 @@ class WorkerSupervisor:
             self.shared_map.unlink()
 
     # commands
-    def send(self, *command) -> bool:
+    def send(self, command: Command) -> bool:
         """Queue a command for the worker; False when it cannot take it now."""
         try:
             self._commands.put_nowait(command)
@@ -159,12 +169,30 @@ class WorkerSupervisor:
                 message = self._states.get_nowait()
             except (queue.Empty, OSError, ValueError, EOFError):
                 return
+            except Exception:  # unreadable (unpickling failed): dropped
+                log.warning("supervisor: dropped an unreadable worker message", exc_info=True)
+                continue
             self._deliver(message)
 
-    def _deliver(self, message: dict) -> None:
-        event = message.get("event") if message.get("kind") == "event" else None
+    def _receive(self) -> WorkerMessage | None:
+        """The next message from the worker, or ``None`` after a short wait or an unreadable one."""
+        try:
+            return self._states.get(timeout=POLL_S)
+        except queue.Empty:
+            return None
+        except (OSError, EOFError, ValueError, AttributeError):  # queues closed or being replaced
+            time.sleep(POLL_S)
+            return None
+        except Exception:  # unreadable (unpickling failed): dropped
+            log.warning("supervisor: dropped an unreadable worker message", exc_info=True)
+            return None
+
+    def _deliver(self, message: WorkerMessage) -> None:
+        if not accepted(message, WorkerMessage, "supervisor"):
+            return
+        event = message.name if isinstance(message, WorkerEvent) else None
         if event in ("crashed", "error"):
-            self.health.last_error = message.get("detail")
+            self.health.last_error = message.fields.get("detail")
         elif event == "started":
             self._resumed = True  # the checkpoint loaded: a death from now on may be its fault
         elif event == "healthy":
@@ -176,13 +204,7 @@ class WorkerSupervisor:
 
     def _run(self) -> None:
         while not self._relay_done.is_set():
-            try:
-                message = self._states.get(timeout=POLL_S)
-            except queue.Empty:
-                message = None
-            except (OSError, EOFError, ValueError):
-                message = None
-                time.sleep(POLL_S)
+            message = self._receive()
             if message is not None:
                 self._deliver(message)
             proc = self._process
@@ -198,8 +220,8 @@ class WorkerSupervisor:
         path = quarantine_newest(self.settings.checkpoint_dir)
         if path is not None:
             log.warning("the worker died twice in a row after resuming; set %s aside", path)
-            self._deliver({"kind": "event", "event": "checkpoint_quarantined", "t": time.time(),
-                           "path": str(path), "detail": "the worker died twice in a row after resuming it"})
+            self._deliver(WorkerEvent("checkpoint_quarantined", time.time(), {
+                "path": str(path), "detail": "the worker died twice in a row after resuming it"}))
 
     def _restart(self, proc: mp.Process) -> None:
         self._drain()
@@ -221,5 +243,5 @@ class WorkerSupervisor:
         self._stopping.wait(delay)
         if not self._stopping.is_set():
             self._spawn()
-            self.on_message({"kind": "event", "event": "restarted", "t": time.time(),
-                             "restarts": self.health.restarts, "exit_code": code})
+            self.on_message(WorkerEvent("restarted", time.time(),
+                                        {"restarts": self.health.restarts, "exit_code": code}))

@@ -26,9 +26,9 @@ def degraded_reasons(runtime) -> list[str]:
         reasons.append(f"preparing the estimator {p['done'] + 1}/{p['total']}: {p['stage']}")
     elif latest is None:
         reasons.append("no pose yet (worker starting)")
-    elif latest.get("relocalizing"):
+    elif latest.relocalizing:
         reasons.append("not localized: looking for the robot in the restored map; mapping paused")
-    elif not latest["localized"]:
+    elif not latest.localized:
         reasons.append("not localized")
     return reasons
 

@@ -18,6 +18,7 @@ from app.api.replay_guard import NotReplaying
 from app.api.saved_maps import checked_map_file
 from app.runtime import Runtime
 from app.worker.estimators import available_modes
+from app.worker.messages import Command, SetMapping, SetMode
 
 router = APIRouter(tags=["mode"])
 
@@ -43,11 +44,12 @@ def _events_after(runtime: Runtime, marker: dict | None) -> list[dict]:
     return events if marker is None else []
 
 
-async def apply(runtime: Runtime, response: Response, *command, refused: str = "mode_refused") -> dict:
+async def apply(runtime: Runtime, response: Response, command: Command,
+                refused: str = "mode_refused") -> dict:
     """Send a worker command and wait for its outcome (see the module docstring); ``refused`` is
     the reason of a 409."""
     marker = runtime.events[-1] if runtime.events else None
-    if not runtime.supervisor.send(*command):
+    if not runtime.supervisor.send(command):
         raise ApiError(status.HTTP_503_SERVICE_UNAVAILABLE, "worker_unavailable",
                        "the worker is not accepting commands")
     deadline = time.monotonic() + SWITCH_WAIT_S
@@ -76,7 +78,7 @@ async def switch_mode(runtime: Runtime, response: Response, mode: str, yaml_path
                        f"mode {mode!r} is not available (have: {have})")
     if mode == "localization" and yaml_path is None and runtime.current_grid() is None:
         raise ApiError(status.HTTP_409_CONFLICT, "no_map", "there is no map to localize on yet")
-    return await apply(runtime, response, "mode", mode, yaml_path, map_name, new_map)
+    return await apply(runtime, response, SetMode(mode, yaml_path, map_name, new_map))
 
 
 @router.get("/mode", response_model=ModeResponse)
@@ -100,11 +102,11 @@ async def update_mode(body: ModeBody, runtime: RuntimeDep, store: StoreDep, resp
              responses={202: {"model": Status, "description": "the worker is still switching"}})
 async def create_mapping_start(runtime: RuntimeDep, response: Response) -> dict:
     """Map again (mapping mode, the map grows from where it is)."""
-    return await apply(runtime, response, "mapping", True)
+    return await apply(runtime, response, SetMapping(True))
 
 
 @router.post("/mapping/stop", response_model=Status, dependencies=[NotReplaying],
              responses={202: {"model": Status, "description": "the worker is still switching"}})
 async def create_mapping_stop(runtime: RuntimeDep, response: Response) -> dict:
     """Freeze the map; the pose follows odometry until mapping or localization starts."""
-    return await apply(runtime, response, "mapping", False)
+    return await apply(runtime, response, SetMapping(False))

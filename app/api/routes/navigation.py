@@ -11,6 +11,7 @@ from app.db.store import NotFound
 from app.navigation.navigator import Goal
 from app.navigation.planning import PlanningError
 from app.runtime import Runtime
+from app.worker.messages import SetPose
 
 router = APIRouter(tags=["navigation"])
 
@@ -74,7 +75,7 @@ def read_path(runtime: RuntimeDep) -> dict:
 def create_pose(body: PoseBody, runtime: RuntimeDep) -> Ok:
     """Set the initial pose (re-initialises the estimator around it); it must lie near the map."""
     require_in_map(runtime, body.x, body.y, "pose")
-    if not runtime.supervisor.send("pose", body.x, body.y, body.yaw):
+    if not runtime.supervisor.send(SetPose(body.x, body.y, body.yaw)):
         raise ApiError(status.HTTP_503_SERVICE_UNAVAILABLE, "worker_unavailable",
                        "the worker is not accepting commands")
     return Ok()

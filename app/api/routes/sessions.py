@@ -17,6 +17,7 @@ from app.api.errors import ApiError
 from app.api.models import Ok, SavedSession, SessionBody, SessionName, Status
 from app.api.replay_guard import NotReplaying
 from app.api.routes.mode import apply
+from app.worker.messages import ResumeSession, SaveSession
 from slam_core.session import SUFFIX
 
 router = APIRouter(prefix="/sessions", tags=["sessions"])
@@ -49,7 +50,7 @@ async def create_session(body: SessionBody, runtime: RuntimeDep, settings: Setti
                          response: Response) -> dict:
     """Save the mapping session so far as ``name`` (replacing a session of that name)."""
     settings.sessions_dir.mkdir(parents=True, exist_ok=True)
-    answer = await apply(runtime, response, "save_session", str(_file(settings, body.name)),
+    answer = await apply(runtime, response, SaveSession(str(_file(settings, body.name))),
                          refused="session_refused")
     if response.status_code != status.HTTP_202_ACCEPTED:
         response.status_code = status.HTTP_201_CREATED
@@ -61,7 +62,7 @@ async def create_session(body: SessionBody, runtime: RuntimeDep, settings: Setti
 async def create_session_resume(name: SessionNameParam, runtime: RuntimeDep, settings: SettingsDep,
                                 response: Response) -> dict:
     """Continue mapping in the saved session (mapping mode; the robot is found in its map first)."""
-    return await apply(runtime, response, "resume_session", str(_existing(settings, name)),
+    return await apply(runtime, response, ResumeSession(str(_existing(settings, name))),
                        refused="session_refused")
 
 
