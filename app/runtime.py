@@ -95,7 +95,7 @@ class Runtime:
         ready = None
         if s.simulation:
             # The worker starts beside the simulator; its grabber opens the pty link once it exists.
-            self.sim, ready = start_simulator(s.world, s.seed, s.data_dir / SIM_SERIAL_LINK)
+            self.sim, ready = start_simulator(s.world, s.seed, s.data_dir / SIM_SERIAL_LINK, s.robot_config())
             port, slot = self.sim.port, self.sim.scans
             start = load_world(s.world).start  # map frame = world frame in simulation
         else:

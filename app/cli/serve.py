@@ -25,6 +25,9 @@ def register(sub) -> None:
                    help="replay speed-up over the log's timing (default 1); max: as fast as SLAM steps")
     p.add_argument("--exit-at-end", action="store_true",
                    help="stop the server (exit 0) once the replay's final optimisation is written")
+    p.add_argument("--robot", type=Path, default=None, metavar="FILE",
+                   help="the robot's description (YAML, see README; HOMEBOT_ROBOT); default: the "
+                        "simulated robot")
     p.add_argument("--config", type=Path, default=None,
                    help="SLAM settings: a config.json as `homebot slam --config` takes")
     p.set_defaults(run=run)
@@ -76,13 +79,15 @@ def run(args: argparse.Namespace) -> int:
     from app.main import create_app
 
     overrides = {k: v for k, v in (("host", args.host), ("port", args.port), ("data_dir", args.data),
-                                   ("world", args.world), ("slam_config", args.config)) if v is not None}
+                                   ("world", args.world), ("robot", args.robot),
+                                   ("slam_config", args.config)) if v is not None}
     if args.real:
         overrides["simulation"] = False
     overrides.update(_replay_overrides(args))
     settings = Settings(**overrides)
     if not settings.simulation and not settings.replay and not settings.sensor_source:
         raise ValueError("a real robot needs HOMEBOT_SENSOR_SOURCE=module:callable giving scans")
+    settings.robot_config()  # a bad robot file is refused here, naming the file and the key
     _check_slam_config(settings)
     token, created = load_or_create_token(settings.data_dir, settings.token)
     url = f"http://{settings.host}:{settings.port}/"

@@ -3,10 +3,13 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated, Literal
+from typing import TYPE_CHECKING, Annotated, Literal
 
 from pydantic import Field, field_validator, model_validator
 from pydantic_settings import BaseSettings, NoDecode, SettingsConfigDict
+
+if TYPE_CHECKING:
+    from slam_core.robot_config import RobotConfig
 
 Mode = Literal["mapping", "localization", "ekf"]
 
@@ -23,6 +26,8 @@ class Settings(BaseSettings):
     port: int = Field(8000, ge=0, le=65535)
     data_dir: Path = Path("./data")
     world: str = "flat"
+    #: The robot's description (``homebot serve --robot``); ``None``: the simulated robot's shipped file.
+    robot: Path | None = None
     simulation: bool = True
     #: Simulation only: drive the world's scripted tour until someone gives the robot a goal,
     #: steers it or cancels, so that a first visitor sees the home being mapped.
@@ -112,6 +117,12 @@ class Settings(BaseSettings):
         if self.replay:
             self.simulation = False
         return self
+
+    def robot_config(self) -> RobotConfig:
+        """The robot described by ``robot`` (read once per process)."""
+        from slam_core.robot_config import robot_from
+
+        return robot_from(self.robot)
 
     @property
     def db_path(self) -> Path:

@@ -23,6 +23,7 @@ from slam_core.localization.mcl import MclConfig, MonteCarloLocalizer
 from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.rbpf.config import RBPFConfig
 from slam_core.rbpf.filter import RBPFSlam
+from slam_core.rbpf.laser_mount import LaserMount
 from slam_core.scan import Scan
 
 
@@ -61,10 +62,11 @@ class FrozenMap:
         return self.grid
 
 
-def laser_mount(settings) -> np.ndarray | None:
+def laser_mount(settings) -> LaserMount:
     """Where the laser sits on the robot: a replayed log's own mount (from its laser and odometry
-    poses), else at the robot's centre (``None``)."""
-    return laser_mount_of(resolve_log(settings.replay)) if settings.replay else None
+    poses) when it records one, else the robot description's."""
+    logged = laser_mount_of(resolve_log(settings.replay)) if settings.replay else None
+    return settings.robot_config().laser.mount if logged is None else LaserMount.of(logged)
 
 
 def slam_config(settings) -> RBPFConfig:
@@ -109,11 +111,12 @@ def make_estimator(mode: str, settings, checkpoint: Checkpoint | None):
     if mode == "localization":
         if grid is None or not grid.data.size:
             raise ModeUnavailable("localization needs a map: load a saved map or map first")
-        config = MclConfig(min_particles=settings.mcl_min_particles, max_particles=settings.mcl_max_particles)
+        config = MclConfig(min_particles=settings.mcl_min_particles, max_particles=settings.mcl_max_particles,
+                           laser_pose=laser_mount(settings).as_tuple())
         return MonteCarloLocalizer(grid, config, rng=np.random.default_rng(settings.seed), initial_pose=pose)
     if mode == "ekf":
         # Landmarks only: the map shown stays the last occupancy map; landmarks are streamed.
-        return EkfSlam(EkfConfig(), initial_pose=pose)
+        return EkfSlam(EkfConfig(laser_offset=laser_mount(settings).as_tuple()), initial_pose=pose)
     raise ModeUnavailable(f"unknown mode {mode!r}")
 
 

@@ -37,6 +37,7 @@ from app.worker.estimators import (
     FrozenMap,
     ModeUnavailable,
     dead_reckons,
+    laser_mount,
     make_estimator,
     map_with_hits,
     warm_up,
@@ -101,13 +102,15 @@ class Worker:
         self.scans = Latest()
         self.replay: ReplayRecording | None = None
         self.anchor: tuple[np.ndarray, np.ndarray] | None = None
+        self.mount = laser_mount(s)  # the scan's points are drawn from the laser's pose
         if s.replay:
             initial_pose = self._open_replay(s.replay_dir)
             # a replay starts afresh and leaves the robot's checkpoints alone
             checkpoint, self.generation = None, 0
         else:
             history = OdometryHistory()
-            self.odometry_grabber = OdometryGrabber(spec.port, s.serial_baud, output=history)
+            wheels = s.robot_config().wheels
+            self.odometry_grabber = OdometryGrabber(spec.port, s.serial_baud, wheels, output=history)
             if scan_slot is not None:
                 self.scan_grabber = ScanGrabber(slot=scan_slot, output=self.scans)
             else:
@@ -185,7 +188,7 @@ class Worker:
             particles = particles[::stride]
             weights = weights[::stride] if weights is not None else None
         pose = np.asarray(estimate.pose, float)
-        points = transform_points(pose, scan.points()).astype(np.float32)
+        points = transform_points(self.mount.laser_poses(pose), scan.points()).astype(np.float32)
         put_newest(self.states, {
             "kind": "state", "t": time.time(), "seq": self.steps, "pose": pose,
             "localized": bool(estimate.localized),
