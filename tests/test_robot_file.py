@@ -171,6 +171,7 @@ def test_a_live_server_drives_the_robot_file_and_publishes_its_true_pose(other_r
             status = until(settled, 120, "the robot to reach the kitchen")
     finally:
         server.stop()
+    assert load_robot(tmp_path / "data" / "robot.yaml") == load_robot(other_robot)  # the effective robot
     assert status["nav"]["state"] == "arrived", status["nav"]
     pose, true = status["pose"], status["true_pose"]
     assert math.hypot(true[0] - 3.2, true[1] - 1.8) < 0.3, true

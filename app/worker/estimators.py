@@ -8,9 +8,7 @@ checkpoint pose; the map frame is therefore continuous across worker restarts.
 from __future__ import annotations
 
 import dataclasses
-import json
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
@@ -24,6 +22,7 @@ from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.rbpf.config import RBPFConfig
 from slam_core.rbpf.filter import RBPFSlam
 from slam_core.rbpf.laser_mount import LaserMount
+from slam_core.robot_config import RobotConfig
 from slam_core.scan import Scan
 
 
@@ -69,23 +68,15 @@ def laser_mount(settings) -> LaserMount:
     return settings.robot_config().laser.mount if logged is None else LaserMount.of(logged)
 
 
-def slam_config(settings) -> RBPFConfig:
-    """The filter's settings: ``settings.slam_config`` (a ``config.json`` as ``homebot slam --config``
-    takes) or the defaults; a live robot (not a replay) keeps the server's particle count,
-    resolution and update thresholds."""
-    config = RBPFConfig()
-    if settings.slam_config is not None:
-        config = RBPFConfig.from_dict(json.loads(Path(settings.slam_config).read_text()))
-    if settings.replay:
-        return config
-    return dataclasses.replace(config, particles=settings.particles, resolution=settings.resolution,
-                               linear_update=settings.rbpf_linear_update,
-                               angular_update=settings.rbpf_angular_update)
+def effective_robot(settings) -> RobotConfig:
+    """The robot the estimators work with: the robot file's, with a replayed log's own laser mount."""
+    robot = settings.robot_config()
+    return dataclasses.replace(robot, laser=dataclasses.replace(robot.laser, mount=laser_mount(settings)))
 
 
 def _rbpf(settings, pose: np.ndarray, grid: OccupancyGrid | None, hit_sums: np.ndarray | None) -> RBPFSlam:
     """The RBPF SLAM, resumed on the checkpoint's map when there is one."""
-    config = slam_config(settings)
+    config = settings.slam()
     slam = RBPFSlam(config, seed=settings.seed, initial_pose=pose, laser_mount=laser_mount(settings))
     if grid is not None and grid.data.size and abs(grid.resolution - settings.resolution) < 1e-12:
         slam.maps.seed_from_grid(grid, hit_sums)
