@@ -305,7 +305,8 @@ class Worker:
         current = self._checkpoint()
         if current.grid is None or not current.grid.data.size:
             return None
-        return Relocalizer(current.grid, current.hit_sums, RBPFConfig(resolution=current.grid.resolution))
+        return Relocalizer(current.grid, current.hit_sums, RBPFConfig(resolution=current.grid.resolution),
+                           self.mount)
 
     def _relocalize(self, odometry, scan) -> bool:
         """Look for the robot in the restored map; until found, publish the guess and map nothing.
