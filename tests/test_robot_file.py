@@ -129,9 +129,20 @@ def test_localization_reads_the_laser_mount_from_the_robot_file(other_robot, tou
         assert dth > 0.2 or dxy > 0.2, (dxy, dth)
 
 
-def test_the_ekf_is_built_with_the_robot_files_laser_mount(other_robot):
-    ekf = make_estimator("ekf", _settings(other_robot), None)
-    assert ekf.config.laser_offset == (MOUNT["x"], MOUNT["y"], MOUNT["theta"])
+@pytest.mark.parametrize("told", ["other", "shipped"])
+def test_the_ekf_reads_the_laser_mount_from_the_robot_file(other_robot, tour, told):
+    frames = tour[1]
+    ekf = make_estimator("ekf", _settings(other_robot if told == "other" else None), None)
+    start_odom, start_true = frames[0].odometry_pose, frames[0].true_pose
+    for frame in frames:
+        ekf.step(relative(start_odom, frame.odometry_pose), frame.scan)
+    truth = relative(start_true, frames[-1].true_pose)
+    dxy, dth = _final_error(ekf.estimate().pose, truth)
+    odometry_dxy, _ = _final_error(relative(start_odom, frames[-1].odometry_pose), truth)
+    if told == "other":  # its scan odometry beats the wheels'
+        assert dxy < 0.5 * odometry_dxy and dth < 0.02, (dxy, dth, odometry_dxy)
+    else:
+        assert dxy > 0.3, (dxy, dth)
 
 
 def test_sim_record_drives_the_robot_file_and_logs_its_mount(other_robot, tmp_path, capsys):
