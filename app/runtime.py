@@ -105,13 +105,13 @@ class Runtime:
         ready = None
         if s.simulation:
             # The link starts beside the simulator; its grabber opens the pty once it exists.
-            self.sim, ready = start_simulator(s.world, s.seed, s.data_dir / SIM_SERIAL_LINK)
+            self.sim, ready = start_simulator(s.world, s.seed, s.data_dir / SIM_SERIAL_LINK, s.robot_config())
             port, slot = self.sim.port, self.sim.scans
             start = load_world(s.world).start  # map frame = world frame in simulation
         else:
             port, slot = s.serial_port, None
         if not s.replay:
-            self.link = RobotLink(port, self.odometry_ring, s.serial_baud).start()
+            self.link = RobotLink(port, self.odometry_ring, s.serial_baud, s.robot_config().wheels).start()
         self.supervisor = WorkerSupervisor(s, self.odometry_ring, slot, self._from_relay, start,
                                            self._correction)
         self.supervisor.start()

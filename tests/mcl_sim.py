@@ -33,8 +33,7 @@ def tour_from(world: World, k: int) -> tuple[np.ndarray, np.ndarray]:
 def place(sim: Simulator, pose, seed: int) -> None:
     """Put the simulated robot at ``pose`` (a new robot: its odometry restarts there)."""
     c = sim.config
-    sim.robot = SimRobot(sim.world, pose=pose, geometry=c.geometry, limits=c.limits, noise=c.noise,
-                         radius=c.robot_radius, rng=np.random.default_rng(seed))
+    sim.robot = SimRobot(sim.world, pose=pose, robot=c.robot, noise=c.noise, rng=np.random.default_rng(seed))
     sim.sense()
 
 

@@ -5,9 +5,11 @@ from __future__ import annotations
 import json
 
 import numpy as np
+import yaml
 
 from app.cli import main
 from app.robot_link.virtual_mcu import LineFaults, VirtualMCU
+from slam_core.robot_config import load_robot
 
 
 class Rolling:
@@ -42,6 +44,11 @@ def test_link_explains_a_line_without_valid_frames(capsys):
     assert "no valid frame" in out and "PROTOCOL.md" in out
 
 
-def test_link_rejects_bad_geometry(capsys):
-    assert main(["link", "/dev/null", "--wheel-base", "0"]) == 2
-    assert "wheel base" in capsys.readouterr().err
+def test_link_rejects_bad_geometry(capsys, tmp_path):
+    robot = load_robot().to_dict()
+    robot["wheels"]["wheel_base"] = 0
+    path = tmp_path / "robot.yaml"
+    path.write_text(yaml.safe_dump(robot))
+    assert main(["link", "/dev/null", "--robot", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "wheels.wheel_base" in err and str(path) in err and "Traceback" not in err

@@ -15,6 +15,7 @@ import pytest
 from app.core.config import Settings
 from app.navigation.navigator import Goal, Navigator
 from app.navigation.planning import PlanningError, plan_path
+from slam_core.robot_config import robot_from
 from slam_core.sim.ground_truth import ground_truth_map
 from slam_core.sim.robot import SimRobot, WheelNoise
 from slam_core.sim.world import parse_world
@@ -24,6 +25,7 @@ ROOM = "start 0.6 1.5 0\nroom box 0 0 4 3\n"
 WALLED = parse_world(ROOM + "wall 2 0 2 3\n", source="walled")
 OPEN = parse_world(ROOM, source="open")
 PHYSICS_DT = 0.01
+RADIUS = robot_from(None).footprint_radius
 
 
 async def drive(world, grid, goals, until_s: float, settings: Settings):
@@ -87,9 +89,9 @@ def test_unknown_space_is_refused_unless_exploring():
     grid = _half_known()
     start = np.array([0.6, 1.5, 0.0])
     with pytest.raises(PlanningError) as info:
-        plan_path(grid, start, (3.0, 1.5))
+        plan_path(grid, start, (3.0, 1.5), robot_radius=RADIUS)
     assert info.value.reason == "goal_in_unknown"
-    path = plan_path(grid, start, (3.0, 1.5), explore=True)
+    path = plan_path(grid, start, (3.0, 1.5), explore=True, robot_radius=RADIUS)
     assert np.allclose(path[-1], (3.0, 1.5), atol=0.05) and path[:, 0].max() > 2.5
 
 
@@ -101,6 +103,7 @@ def test_paths_stay_in_mapped_space_without_explore():
     known_far = (xs[None, :] > 3.0) & (ys[:, None] > 0.3) & (ys[:, None] < 2.7)
     grid.data[known_far] = grid.model.l_min
     with pytest.raises(PlanningError) as info:
-        plan_path(grid, np.array([0.6, 1.5, 0.0]), (3.5, 1.5))
+        plan_path(grid, np.array([0.6, 1.5, 0.0]), (3.5, 1.5), robot_radius=RADIUS)
     assert info.value.reason == "goal_unreachable"
-    assert plan_path(grid, np.array([0.6, 1.5, 0.0]), (3.5, 1.5), explore=True)[-1][0] > 3.4
+    assert plan_path(grid, np.array([0.6, 1.5, 0.0]), (3.5, 1.5), explore=True,
+                     robot_radius=RADIUS)[-1][0] > 3.4

@@ -10,9 +10,9 @@ import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-from app.navigation.planning import KNOWN_ONLY, plan_path
+from app.navigation.planning import costmap_config, plan_path
 from slam_core.control.pure_pursuit import PurePursuit, PursuitConfig
-from slam_core.planning.costmap import CostmapConfig, build_costmap
+from slam_core.planning.costmap import build_costmap
 from slam_core.planning.errors import PlanningError
 from slam_core.planning.zones import (
     GoalInNoGoZone,
@@ -22,11 +22,13 @@ from slam_core.planning.zones import (
     exit_point,
     restricted_costmap,
 )
+from slam_core.robot_config import robot_from
 from slam_core.sim.ground_truth import ground_truth_map
 from slam_core.sim.robot import SimRobot, WheelNoise
 from slam_core.sim.world import parse_world
 
-RADIUS = CostmapConfig().robot_radius
+ROBOT = robot_from(None)
+RADIUS = ROBOT.footprint_radius
 RES = 0.05
 W, H = 7.0, 5.0
 
@@ -126,7 +128,7 @@ def test_no_planned_path_enters_a_zone_or_crosses_a_virtual_wall(seed):
     _, grid, restrictions, start, goal = scenario
     in_zone = any(z.contains(goal) for z in restrictions.zones)
     try:
-        path = plan_path(grid, np.array([*start, 0.0]), goal, restrictions)
+        path = plan_path(grid, np.array([*start, 0.0]), goal, restrictions, robot_radius=RADIUS)
     except GoalInNoGoZone:
         assert in_zone
         return
@@ -148,13 +150,13 @@ def test_the_simulated_robot_never_enters_a_zone_or_crosses_a_virtual_wall(seed)
     assume(scenario is not None)
     world, grid, restrictions, start, goal = scenario
     try:
-        path = plan_path(grid, np.array([*start, 0.0]), goal, restrictions)
+        path = plan_path(grid, np.array([*start, 0.0]), goal, restrictions, robot_radius=RADIUS)
     except PlanningError:
         assume(False)
         return
     heading = np.arctan2(*(path[1] - path[0])[::-1]) if len(path) > 1 else 0.0
     robot = SimRobot(world, np.array([*start, heading]), noise=WheelNoise.none())
-    follower = PurePursuit(path, PursuitConfig(v_max=0.4, w_max=1.2))
+    follower = PurePursuit(path, PursuitConfig.for_robot(ROBOT, v_max=0.4, w_max=1.2))
     dt, previous = 0.05, robot.true_pose[:2].copy()
     for _ in range(int(120 / dt)):
         robot.set_velocity(*follower.command(robot.true_pose))
@@ -173,7 +175,7 @@ def test_a_robot_inside_a_zone_leaves_by_the_nearest_way_out():
     world = parse_world("start 1 1 0\npolygon 0 0 6 0 6 4 0 4", source="box")
     grid = ground_truth_map(world, RES)
     zone = NoGoZone(((2.0, 1.0), (4.0, 1.0), (4.0, 3.0), (2.0, 3.0)))
-    path = plan_path(grid, np.array([2.3, 2.0, 0.0]), (5.0, 2.0), Restrictions((zone,)))
+    path = plan_path(grid, np.array([2.3, 2.0, 0.0]), (5.0, 2.0), Restrictions((zone,)), robot_radius=RADIUS)
     assert np.allclose(path[0], [2.3, 2.0])
     way_out = path[1]
     # The nearest way out of the zone (grown by the robot's radius) is west, through x = 2 - radius.
@@ -187,12 +189,12 @@ def test_the_way_out_of_a_zone_never_leads_through_a_real_wall():
     grid = ground_truth_map(world, RES)
     zone = NoGoZone(((2.5, 0.0), (3.9, 0.0), (3.9, 2.5), (2.5, 2.5)))
     start = np.array([3.6, 1.5, 0.0])
-    costmap = build_costmap(grid, KNOWN_ONLY)
+    costmap = build_costmap(grid, costmap_config(RADIUS, explore=False))
     restricted = restricted_costmap(costmap, Restrictions((zone,)), RADIUS)
     # In a straight line the nearest free cell lies in the other room, behind the wall ...
     assert exit_point(restricted, start)[0] > 4.0
     # ... but the robot leaves on its own side: north, above the zone grown by its radius.
-    path = plan_path(grid, start, (1.0, 3.5), Restrictions((zone,)))
+    path = plan_path(grid, start, (1.0, 3.5), Restrictions((zone,)), robot_radius=RADIUS)
     way_out = path[1]
     assert way_out[0] < 4.0 - RADIUS and way_out[1] > 2.5 + RADIUS - RES, way_out
     assert np.all(_dense(path)[:, 0] < 4.0)  # no part of the drive crosses the wall
@@ -202,16 +204,16 @@ def test_a_zone_or_a_virtual_wall_across_the_direct_route_forces_a_detour():
     world = parse_world("start 1 1 0\npolygon 0 0 6 0 6 4 0 4", source="box")
     grid = ground_truth_map(world, RES)
     start, goal = np.array([1.0, 1.0, 0.0]), (5.0, 1.0)
-    direct = plan_path(grid, start, goal)
+    direct = plan_path(grid, start, goal, robot_radius=RADIUS)
     assert np.abs(direct[:, 1] - 1.0).max() < 0.1  # straight along y = 1
     zone = Restrictions((NoGoZone(((2.0, 0.0), (4.0, 0.0), (4.0, 3.0), (2.0, 3.0))),))
     wall = Restrictions(walls=(VirtualWall((3.0, 0.0), (3.0, 3.0)),))
     for restriction in (zone, wall):
-        detour = plan_path(grid, start, goal, restriction)
+        detour = plan_path(grid, start, goal, restriction, robot_radius=RADIUS)
         assert detour[:, 1].max() > 3.0 + RADIUS - RES  # over the top, clear of the zone or wall's end
         assert _clearance_to_restrictions(_dense(detour), restriction) >= RADIUS - 2 * RES
     with pytest.raises(GoalInNoGoZone, match="inside no-go zone 1"):
-        plan_path(grid, start, (3.0, 1.0), zone)
+        plan_path(grid, start, (3.0, 1.0), zone, robot_radius=RADIUS)
 
 
 @pytest.mark.parametrize(("make", "message"), [

@@ -1,7 +1,12 @@
+import math
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
 from slam_core.control.pure_pursuit import PurePursuit, PursuitConfig
+from slam_core.rbpf.laser_mount import LaserMount
+from slam_core.robot_config import robot_from
 from slam_core.sim.simulator import SimConfig, Simulator
 from slam_core.sim.world import parse_world
 
@@ -11,6 +16,7 @@ room a 0 0 5 4
 room b 5 0 9 4
 door 5 1.5 5 2.5
 """
+ROBOT = robot_from(None)
 
 
 def run(sim, controller, seconds):
@@ -24,7 +30,7 @@ def run(sim, controller, seconds):
 def test_reaches_the_goal_through_a_door_within_limits():
     world = parse_world(ROOMS, source="rooms")
     sim = Simulator(world, SimConfig(), seed=1)
-    cfg = PursuitConfig(v_max=0.35, w_max=1.0)
+    cfg = PursuitConfig.for_robot(ROBOT, v_max=0.35, w_max=1.0)
     ctl = PurePursuit([[3.5, 1.0], [3.5, 2.0], [7.5, 2.0], [7.5, 3.0]], cfg)
     seen = []
     for _ in range(60 * 20):
@@ -44,7 +50,7 @@ def test_reaches_the_goal_through_a_door_within_limits():
 def test_stops_before_an_obstacle_on_the_path():
     world = parse_world(ROOMS + "leg 3.0 1.0 0.1 1.0\n", source="rooms+post")
     sim = Simulator(world, SimConfig(), seed=2)
-    ctl = PurePursuit([[4.5, 1.0]])
+    ctl = PurePursuit([[4.5, 1.0]], PursuitConfig.for_robot(ROBOT))
     run(sim, ctl, 30)
     assert ctl.blocked and not ctl.done
     assert not sim.robot.bumped
@@ -53,8 +59,27 @@ def test_stops_before_an_obstacle_on_the_path():
     assert sim.robot.velocity == (0.0, 0.0)
 
 
+@pytest.mark.parametrize("told_the_mount", [True, False])
+def test_a_turned_laser_behind_the_centre_still_stops_the_robot_before_an_obstacle(told_the_mount):
+    """The laser sits 8 cm behind the centre, turned to face left: the controller reads the post
+    ahead from its scan only through the robot file's mount (without it the robot runs into it)."""
+    world = parse_world(ROOMS + "leg 3.0 1.0 0.1 1.0\n", source="rooms+post")
+    mount = LaserMount(-0.08, 0.0, math.pi / 2)
+    robot = replace(ROBOT, laser=replace(ROBOT.laser, mount=mount))
+    sim = Simulator(world, SimConfig(robot=robot), seed=2)
+    controller_robot = robot if told_the_mount else ROBOT
+    ctl = PurePursuit([[4.5, 1.0]], PursuitConfig.for_robot(controller_robot))
+    run(sim, ctl, 30)
+    if not told_the_mount:
+        assert sim.robot.bumped and not ctl.blocked
+        return
+    assert ctl.blocked and not ctl.done and not sim.robot.bumped
+    gap = 3.0 - 0.1 - sim.robot.true_pose[0] - sim.robot.radius
+    assert 0.02 < gap <= ctl.config.stop_distance + 0.02
+
+
 def test_slows_for_turns_and_goal():
-    cfg = PursuitConfig()
+    cfg = PursuitConfig.for_robot(ROBOT)
     straight = PurePursuit([[2.0, 0.0], [6.0, 0.0]], cfg)
     corner = PurePursuit([[2.0, 0.0], [2.0, 3.0]], cfg)
     v_straight, _ = straight.command([1.7, 0.0, 0.0])
@@ -69,12 +94,12 @@ def test_slows_for_turns_and_goal():
 
 
 def test_turns_on_the_spot_when_the_leg_is_behind():
-    v, w = PurePursuit([[-2.0, 0.0]]).command([0.0, 0.0, 0.0])
+    v, w = PurePursuit([[-2.0, 0.0]], PursuitConfig.for_robot(ROBOT)).command([0.0, 0.0, 0.0])
     assert v == 0.0 and abs(w) > 0
 
 
 def test_bad_waypoints():
     with pytest.raises(ValueError, match="waypoints"):
-        PurePursuit([])
+        PurePursuit([], PursuitConfig.for_robot(ROBOT))
     with pytest.raises(ValueError, match="waypoints"):
-        PurePursuit([[1.0, np.nan]])
+        PurePursuit([[1.0, np.nan]], PursuitConfig.for_robot(ROBOT))

@@ -3,14 +3,17 @@
 from __future__ import annotations
 
 import itertools
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from app.worker.relocalize import Relocalizer
 from slam_core.geometry import wrap_angle
+from slam_core.rbpf.laser_mount import LaserMount
 from slam_core.rbpf.tiled_map import TiledMaps
-from slam_core.sim.lidar import Lidar
+from slam_core.robot_config import robot_from
+from slam_core.sim.lidar import Lidar, LidarConfig
 from slam_core.sim.world import load_world
 from tests.synthetic_room import room_scan
 
@@ -30,8 +33,8 @@ def tour_poses(world, step: float = 0.1) -> np.ndarray:
 
 
 @pytest.fixture(scope="module")
-def flat():
-    """The flat mapped from its tour's true poses, with a lidar to take test scans."""
+def flat_map():
+    """The flat mapped from its tour's true poses: the world, grid, hit sums and poses."""
     world = load_world("flat")
     lidar = Lidar(world)
     rng = np.random.default_rng(0)
@@ -39,7 +42,14 @@ def flat():
     poses = tour_poses(world)
     for pose in poses:
         maps.integrate(pose[None, :], lidar.scan(pose, rng))
-    return Relocalizer(maps.to_grid(0), maps.hit_sums(0)), lidar, poses
+    return world, maps.to_grid(0), maps.hit_sums(0), poses
+
+
+@pytest.fixture(scope="module")
+def flat(flat_map):
+    """A relocalizer in the mapped flat, with a lidar to take test scans."""
+    world, grid, hits, poses = flat_map
+    return Relocalizer(grid, hits), Lidar(world), poses
 
 
 def error(fix_pose, truth) -> tuple[float, float]:
@@ -69,6 +79,24 @@ def test_a_wrong_guess_is_replaced_by_the_global_search(flat, seed):
     assert fix is not None and fix.search == "global"
     d, dth = error(fix.pose, truth)
     assert d <= POSE_TOLERANCE_M and dth <= HEADING_TOLERANCE, (fix, truth)
+
+
+@pytest.mark.parametrize("told", [True, False])
+def test_a_laser_off_the_centre_is_found_at_the_robots_pose_when_its_mount_is_given(flat_map, told):
+    world, grid, hits, poses = flat_map
+    mount = LaserMount(-0.1, 0.04, 0.6)
+    laser = robot_from(None).laser
+    mounted = Lidar(world, LidarConfig(replace(laser, mount=mount)))
+    located = Relocalizer(grid, hits, mount=mount if told else None)
+    rng = np.random.default_rng(8)
+    truth = poses[len(poses) // 3]
+    fix = located.locate(mounted.scan(truth, rng), truth + np.array([0.2, -0.2, 0.2]))
+    assert fix is not None
+    d, dth = error(fix.pose, truth)
+    if told:
+        assert d <= POSE_TOLERANCE_M and dth <= HEADING_TOLERANCE, (fix, truth)
+    else:  # it finds the laser, not the robot
+        assert dth > 0.5, (fix, truth)
 
 
 def test_a_scan_of_another_place_is_not_accepted(flat):

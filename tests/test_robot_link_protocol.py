@@ -26,7 +26,8 @@ from app.robot_link.protocol import (
     seq_distance,
     wrap_i32,
 )
-from slam_core.sensors.wheel_odometry import DiffDriveGeometry, OdometryIntegrator
+from slam_core.robot_config import robot_from
+from slam_core.sensors.wheel_odometry import OdometryIntegrator
 
 U16 = st.integers(0, 2**16 - 1)
 U32 = st.integers(0, 2**32 - 1)
@@ -182,7 +183,7 @@ def test_frames_split_byte_by_byte():
 
 
 # -- decoder: hypothesis-generated corrupted streams --------------------------------------------
-GEOMETRY = DiffDriveGeometry()
+GEOMETRY = robot_from(None).wheels
 MAX_WHEEL_SPEED = 1.0
 FRAME_DT_US = 20_000
 GARBAGE = st.one_of(

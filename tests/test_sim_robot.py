@@ -1,17 +1,20 @@
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from slam_core.robot_config import RobotLimits, robot_from
 from slam_core.sensors.wheel_odometry import DiffDriveGeometry, integrate_ticks
-from slam_core.sim.robot import RobotLimits, SimRobot, WheelNoise
+from slam_core.sim.robot import SimRobot, WheelNoise
 from slam_core.sim.world import load_world, parse_world
 from tests import naive_sim
 
 BOX = parse_world("start 1 1.5 0\nroom box 0 0 4 3\nleg 3 0.5 0.05 1.0\n", source="box")
 QUIET = WheelNoise.none()
+ROBOT = robot_from(None)
 
 
 def drive(robot, v, w, seconds, dt=0.01):
@@ -37,7 +40,7 @@ def test_interface_types():
 
 def test_limits_clip_speed_and_acceleration():
     lim = RobotLimits(v_max=0.3, w_max=1.0, a_max=0.5, alpha_max=2.0)
-    r = SimRobot(BOX, pose=[0.5, 1.5, 0.0], noise=QUIET, limits=lim)
+    r = SimRobot(BOX, pose=[0.5, 1.5, 0.0], noise=QUIET, robot=replace(ROBOT, limits=lim))
     r.set_velocity(5.0, 0.0)
     r.step(0.1)
     assert r.velocity[0] == pytest.approx(0.05)  # a_max * dt
@@ -73,8 +76,8 @@ def test_odometry_pose_is_integrate_ticks_over_the_tick_increments():
 
 def test_encoder_quantisation():
     geo = DiffDriveGeometry(wheel_radius=0.05, wheel_base=0.3, ticks_per_rev=100)
-    r = SimRobot(BOX, pose=[0.5, 1.5, 0.0], geometry=geo, noise=QUIET,
-                 limits=RobotLimits(a_max=1e9, alpha_max=1e9))
+    r = SimRobot(BOX, pose=[0.5, 1.5, 0.0], noise=QUIET,
+                 robot=replace(ROBOT, wheels=geo, limits=replace(ROBOT.limits, a_max=1e9, alpha_max=1e9)))
     # 0.5 wheel revolutions (0.05 * pi m) exactly -> 50 ticks; just below -> 49
     dist = 0.5 * 2 * math.pi * geo.wheel_radius
     r.set_velocity(dist * 0.999 / 0.5, 0.0)
@@ -85,7 +88,8 @@ def test_encoder_quantisation():
     r.step(0.1)
     assert r.ticks() == (50, 50)
     # backwards: floor rounds toward -inf
-    r2 = SimRobot(BOX, pose=[2.0, 1.5, 0.0], geometry=geo, noise=QUIET, limits=RobotLimits(a_max=1e9))
+    r2 = SimRobot(BOX, pose=[2.0, 1.5, 0.0], noise=QUIET,
+                  robot=replace(ROBOT, wheels=geo, limits=replace(ROBOT.limits, a_max=1e9)))
     r2.set_velocity(-0.001, 0.0)
     r2.step(0.1)
     assert r2.ticks() == (-1, -1)
@@ -136,7 +140,7 @@ commands = st.lists(st.tuples(st.floats(-1.0, 1.0), st.floats(-2.0, 2.0), st.int
 def test_never_passes_through_walls(cmds, seed):
     w = load_world("flat")
     r = SimRobot(w, noise=WheelNoise(0.01, 0.05, 0.2), rng=np.random.default_rng(seed),
-                 limits=RobotLimits(v_max=1.0, w_max=2.0, a_max=5.0, alpha_max=10.0))
+                 robot=replace(ROBOT, limits=RobotLimits(v_max=1.0, w_max=2.0, a_max=5.0, alpha_max=10.0)))
     walls = w.segments
     for v, om, steps in cmds:
         r.set_velocity(v, om)

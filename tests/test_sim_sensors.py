@@ -1,8 +1,10 @@
+import dataclasses
 import math
 
 import numpy as np
 import pytest
 
+from slam_core.robot_config import robot_from
 from slam_core.sensors.depth_to_scan import depth_to_scan
 from slam_core.sim.depth_camera import DepthCamera, DepthCameraConfig, kinect_depth_sigma
 from slam_core.sim.lidar import Lidar, LidarConfig
@@ -11,11 +13,16 @@ from slam_core.sim.world import parse_world
 
 # a long room: 2 m to the east wall from the robot at (1, 2), a low box and a tall post
 ROOM = parse_world("start 1 2 0\nroom r 0 0 12 4\n", source="room")
+LASER = robot_from(None).laser
+
+
+def _laser(**changes):
+    return dataclasses.replace(LASER, **changes)
 
 
 def test_lidar_geometry_and_no_returns():
     w = parse_world("start 1 2 0\nwall 3 -10 3 10\n", source="wall")
-    lidar = Lidar(w, LidarConfig(beams=8, range_noise_std=0.0, dropout=0.0, range_max=5.0))
+    lidar = Lidar(w, LidarConfig(_laser(beams=8, range_max=5.0), range_noise_std=0.0, dropout=0.0))
     s = lidar.scan([1, 2, 0], np.random.default_rng(0))
     assert np.allclose(s.angles, -np.pi + np.arange(8) * np.pi / 4)
     # beam 4 is straight ahead (2 m), beams 3 and 5 at +-45 deg (2 sqrt 2); the rest see nothing
@@ -25,7 +32,7 @@ def test_lidar_geometry_and_no_returns():
 
 
 def test_lidar_noise_and_dropout_statistics():
-    cfg = LidarConfig(beams=720, range_noise_std=0.02, dropout=0.1, range_max=20.0)
+    cfg = LidarConfig(_laser(beams=720, range_max=20.0), range_noise_std=0.02, dropout=0.1)
     lidar = Lidar(ROOM, cfg)
     rng = np.random.default_rng(5)
     truth = lidar.true_ranges([1.0, 2.0, 0.3])
@@ -40,7 +47,7 @@ def test_lidar_noise_and_dropout_statistics():
 def test_lidar_sees_only_what_reaches_its_height():
     w = parse_world("start 1 2 0\nroom r 0 0 6 4\nfurniture low 0.1 3 1.5 3.5 1.5 3.5 2.5 3 2.5\n"
                     "leg 2 2 0.05 0.5\n", source="w")
-    cfg = LidarConfig(beams=4, range_noise_std=0.0, dropout=0.0, mount_height=0.2)
+    cfg = LidarConfig(_laser(beams=4, height=0.2), range_noise_std=0.0, dropout=0.0)
     s = Lidar(w, cfg).scan([1, 2, np.pi], np.random.default_rng(0))
     # facing west (pi), beam index 2 (bearing 0) sees the west wall 1 m away; beam 0 (bearing -pi)
     # looks east: the 0.5 m leg at x = 2 (radius 0.05) is hit, the 0.1 m box behind it would not be

@@ -114,7 +114,7 @@ def test_bad_construction_is_explained():
     with pytest.raises(ValueError, match="max_wheel_speed"):
         OdometryIntegrator(GEOMETRY, max_wheel_speed=0)
     with pytest.raises(ValueError, match="wheel base"):
-        OdometryIntegrator(DiffDriveGeometry(wheel_base=0.0), max_wheel_speed=1.0)
+        OdometryIntegrator(DiffDriveGeometry(0.035, 0.0, 1440), max_wheel_speed=1.0)
     with pytest.raises(ValueError, match="initial pose"):
         OdometryIntegrator(GEOMETRY, max_wheel_speed=1.0, pose=(0, np.nan, 0))
 

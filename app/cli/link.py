@@ -5,17 +5,16 @@ from __future__ import annotations
 import json
 import time
 from dataclasses import asdict
+from pathlib import Path
 
 from app.cli.inputs import serial_device
 from app.cli.progress import fraction_bar
 from app.grabbers.odometry_grabber import DEFAULT_BAUDRATE, DEFAULT_MAX_WHEEL_SPEED, OdometryGrabber
-from slam_core.sensors.wheel_odometry import DiffDriveGeometry
 
 POLL = 0.1  # s between progress updates
 
 
 def register(sub) -> None:
-    g = DiffDriveGeometry()
     p = sub.add_parser(
         "link",
         help="read wheel encoders from a serial port and report odometry and link errors",
@@ -26,9 +25,8 @@ def register(sub) -> None:
     p.add_argument("port", help="serial device, e.g. /dev/ttyUSB0 or /dev/serial/by-id/...")
     p.add_argument("--baud", type=int, default=DEFAULT_BAUDRATE, help="baud rate (default %(default)s)")
     p.add_argument("--seconds", type=float, default=5.0, help="how long to listen (default %(default)s)")
-    p.add_argument("--wheel-radius", type=float, default=g.wheel_radius, help="m (default %(default)s)")
-    p.add_argument("--wheel-base", type=float, default=g.wheel_base, help="m (default %(default)s)")
-    p.add_argument("--ticks-per-rev", type=int, default=g.ticks_per_rev, help="(default %(default)s)")
+    p.add_argument("--robot", type=Path, default=None, metavar="FILE",
+                   help="the robot's description (YAML, see README); default: the simulated robot")
     p.add_argument(
         "--max-wheel-speed", type=float, default=DEFAULT_MAX_WHEEL_SPEED, help="m/s (default %(default)s)"
     )
@@ -39,7 +37,9 @@ def register(sub) -> None:
 def run(args) -> int:
     if not args.seconds > 0:
         raise ValueError(f"--seconds must be positive, got {args.seconds}")
-    geometry = DiffDriveGeometry(args.wheel_radius, args.wheel_base, args.ticks_per_rev)
+    from slam_core.robot_config import load_robot
+
+    geometry = load_robot(args.robot).wheels
     grabber = OdometryGrabber(serial_device(args.port), args.baud, geometry, args.max_wheel_speed)
     start = time.monotonic()
     with grabber, fraction_bar(f"listening on {args.port}") as progress:

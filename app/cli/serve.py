@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import json
 from pathlib import Path
 
 from app.core.config import WORLDS
@@ -25,6 +26,9 @@ def register(sub) -> None:
                    help="replay speed-up over the log's timing (default 1); max: as fast as SLAM steps")
     p.add_argument("--exit-at-end", action="store_true",
                    help="stop the server (exit 0) once the replay's final optimisation is written")
+    p.add_argument("--robot", type=Path, default=None, metavar="FILE",
+                   help="the robot's description (YAML, see README; HOMEBOT_ROBOT); default: the "
+                        "simulated robot")
     p.add_argument("--config", type=Path, default=None,
                    help="SLAM settings: a config.json as `homebot slam --config` takes")
     p.set_defaults(run=run)
@@ -59,12 +63,31 @@ def _replay_overrides(args: argparse.Namespace) -> dict:
 
 def _check_slam_config(settings) -> None:
     """Refuse a SLAM settings file the worker could not use, before serving."""
-    from app.worker.estimators import slam_config
-
     try:
-        slam_config(settings)
+        settings.slam()
     except (TypeError, KeyError, ValueError) as exc:
         raise ValueError(f"--config {settings.slam_config}: not a SLAM config ({exc})") from None
+
+
+def write_effective_config(settings) -> list[Path]:
+    """Write the robot (``robot.yaml``, as ``--robot`` reads it) and SLAM settings (``config.json``,
+    as ``--config`` and ``homebot slam --config`` read it) this server runs with into the data dir
+    and, for a replay, beside its outputs; returns the files written."""
+    from app.replay.log_feed import replay_name
+    from app.worker.estimators import effective_robot
+
+    folders = [settings.data_dir]
+    if settings.replay:
+        folders.append(settings.replay_dir / replay_name(settings.replay))
+    robot = effective_robot(settings).to_yaml()
+    slam = json.dumps(settings.slam().to_dict(), indent=2) + "\n"
+    written = []
+    for folder in folders:
+        folder.mkdir(parents=True, exist_ok=True)
+        for name, text in (("robot.yaml", robot), ("config.json", slam)):
+            (folder / name).write_text(text)
+            written.append(folder / name)
+    return written
 
 
 def run(args: argparse.Namespace) -> int:
@@ -76,14 +99,17 @@ def run(args: argparse.Namespace) -> int:
     from app.main import create_app
 
     overrides = {k: v for k, v in (("host", args.host), ("port", args.port), ("data_dir", args.data),
-                                   ("world", args.world), ("slam_config", args.config)) if v is not None}
+                                   ("world", args.world), ("robot", args.robot),
+                                   ("slam_config", args.config)) if v is not None}
     if args.real:
         overrides["simulation"] = False
     overrides.update(_replay_overrides(args))
     settings = Settings(**overrides)
     if not settings.simulation and not settings.replay and not settings.sensor_source:
         raise ValueError("a real robot needs HOMEBOT_SENSOR_SOURCE=module:callable giving scans")
+    settings.robot_config()  # a bad robot file is refused here, naming the file and the key
     _check_slam_config(settings)
+    write_effective_config(settings)
     token, created = load_or_create_token(settings.data_dir, settings.token)
     url = f"http://{settings.host}:{settings.port}/"
     if created:

@@ -2,11 +2,17 @@
 
 from __future__ import annotations
 
+import json
+from functools import lru_cache
 from pathlib import Path
-from typing import Annotated, Literal
+from typing import TYPE_CHECKING, Annotated, Literal
 
 from pydantic import Field, field_validator, model_validator
 from pydantic_settings import BaseSettings, NoDecode, SettingsConfigDict
+
+if TYPE_CHECKING:
+    from slam_core.rbpf.config import RBPFConfig
+    from slam_core.robot_config import RobotConfig
 
 Mode = Literal["mapping", "localization", "ekf"]
 
@@ -23,6 +29,8 @@ class Settings(BaseSettings):
     port: int = Field(8000, ge=0, le=65535)
     data_dir: Path = Path("./data")
     world: str = "flat"
+    #: The robot's description (``homebot serve --robot``); ``None``: the simulated robot's shipped file.
+    robot: Path | None = None
     simulation: bool = True
     #: Simulation only: drive the world's scripted tour until someone gives the robot a goal,
     #: steers it or cancels, so that a first visitor sees the home being mapped.
@@ -39,7 +47,8 @@ class Settings(BaseSettings):
     replay_speed: float | None = Field(1.0, gt=0.0)
     #: Stop the server once the replay's final optimisation is written.
     replay_exit_at_end: bool = False
-    #: The SLAM settings file ``homebot slam --config`` takes (an earlier run's ``config.json``).
+    #: The SLAM settings file ``homebot slam --config`` takes (an earlier run's ``config.json``);
+    #: ``None``: the SLAM defaults (:class:`slam_core.rbpf.config.RBPFConfig`), as ``homebot slam``'s.
     slam_config: Path | None = None
 
     cors_origins: Annotated[list[str], NoDecode] = Field(default_factory=list)
@@ -52,12 +61,8 @@ class Settings(BaseSettings):
     client_send_timeout_s: float = Field(10.0, gt=0.0)
     max_particles_streamed: int = Field(300, ge=1)
 
-    resolution: float = Field(0.05, gt=0.0, le=1.0)
     tile_size: int = 64
     map_capacity_cells: int = Field(2048 * 2048, ge=64 * 64)
-    particles: int = Field(30, ge=1, le=2000)
-    rbpf_linear_update: float = Field(0.25, gt=0.0)
-    rbpf_angular_update: float = Field(0.2, gt=0.0)
     mcl_min_particles: int = Field(300, ge=10)
     mcl_max_particles: int = Field(3000, ge=10)
     checkpoint_s: float = Field(1.0, gt=0.0)
@@ -113,6 +118,21 @@ class Settings(BaseSettings):
             self.simulation = False
         return self
 
+    def robot_config(self) -> RobotConfig:
+        """The robot described by ``robot`` (read once per process)."""
+        from slam_core.robot_config import robot_from
+
+        return robot_from(self.robot)
+
+    def slam(self) -> RBPFConfig:
+        """The SLAM settings: the ``slam_config`` file or the defaults (read once per process)."""
+        return _slam_from(self.slam_config)
+
+    @property
+    def resolution(self) -> float:
+        """The map's cell size (m), the SLAM settings'."""
+        return self.slam().resolution
+
     @property
     def db_path(self) -> Path:
         return self.data_dir / "homebot.sqlite3"
@@ -136,3 +156,10 @@ class Settings(BaseSettings):
     @property
     def last_map_stem(self) -> Path:
         return self.data_dir / "last_map"
+
+
+@lru_cache(maxsize=8)
+def _slam_from(path: Path | None) -> RBPFConfig:
+    from slam_core.rbpf.config import RBPFConfig
+
+    return RBPFConfig() if path is None else RBPFConfig.from_dict(json.loads(Path(path).read_text()))

@@ -31,6 +31,7 @@ from app.robot_link.protocol import (
     VelocityCommand,
     encode,
 )
+from slam_core.robot_config import robot_from
 from slam_core.sensors.wheel_odometry import DiffDriveGeometry, OdometryIntegrator
 
 log = logging.getLogger(__name__)
@@ -93,7 +94,7 @@ class OdometryGrabber:
     ):
         self.port = port
         self.baudrate = baudrate
-        self.geometry = geometry or DiffDriveGeometry()
+        self.geometry = geometry or robot_from(None).wheels
         self.odometry = output if output is not None else Latest()
         self.integrator = OdometryIntegrator(self.geometry, max_wheel_speed)
         self.decoder = FrameDecoder(accept={TYPE_ENCODER})

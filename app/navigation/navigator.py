@@ -118,7 +118,8 @@ class Navigator:
         if grid is None or pose is None:
             raise PlanningError("the robot has no map or pose yet")
         return await asyncio.to_thread(plan_path, grid, np.asarray(pose, float), (goal.x, goal.y),
-                                       self.restrictions(), explore=goal.explore)
+                                       self.restrictions(), explore=goal.explore,
+                                       robot_radius=self.settings.robot_config().footprint_radius)
 
     @property
     def touring(self) -> bool:

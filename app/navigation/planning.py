@@ -12,26 +12,32 @@ from slam_core.planning.costmap import CostmapConfig, build_costmap
 from slam_core.planning.errors import PlanningError
 from slam_core.planning.zones import Restrictions, check_goal, exit_point, restricted_costmap
 
-__all__ = ["PlanningError", "follower_for", "plan_path"]
+__all__ = ["PlanningError", "costmap_config", "follower_for", "plan_path"]
 
 
 #: A cell the robot has seen to be more likely free than not is mapped free space (the dashboard
 #: draws it lighter than unknown grey); one never seen, or seen more occupied than free, is unknown.
 MAPPED_FREE_BELOW = 0.5
-#: Unknown cells are forbidden unless the goal explores; then they cost the planner's default extra.
-KNOWN_ONLY = CostmapConfig(unknown_cost=None, free_thresh=MAPPED_FREE_BELOW)
-EXPLORING = CostmapConfig(free_thresh=MAPPED_FREE_BELOW)
+
+
+def costmap_config(robot_radius: float, explore: bool) -> CostmapConfig:
+    """The costmap of a robot of ``robot_radius``: unknown cells are forbidden unless the goal
+    explores; then they cost the planner's default extra."""
+    if explore:
+        return CostmapConfig(robot_radius=robot_radius, free_thresh=MAPPED_FREE_BELOW)
+    return CostmapConfig(robot_radius=robot_radius, unknown_cost=None, free_thresh=MAPPED_FREE_BELOW)
 
 
 def plan_path(grid: OccupancyGrid, pose: np.ndarray, goal, restrictions: Restrictions | None = None,
-              *, explore: bool = False) -> np.ndarray:
-    """Waypoints ``(n, 2)`` from the pose to the goal; raises ``PlanningError`` with a ``reason``.
+              *, robot_radius: float, explore: bool = False) -> np.ndarray:
+    """Waypoints ``(n, 2)`` from the pose to the goal for a robot of ``robot_radius`` (m); raises
+    ``PlanningError`` with a ``reason``.
 
     Without ``explore`` a goal in unknown space fails with ``goal_in_unknown`` and the path stays
     in mapped free space. With ``restrictions`` (no-go zones, virtual walls) the path keeps the
     robot out of them; a robot inside one first leaves it by the nearest way out.
     """
-    config = EXPLORING if explore else KNOWN_ONLY
+    config = costmap_config(robot_radius, explore)
     costmap = build_costmap(grid, config)
     start = np.asarray(pose, float)[:2]
     way_out = None
@@ -48,6 +54,8 @@ def plan_path(grid: OccupancyGrid, pose: np.ndarray, goal, restrictions: Restric
 
 
 def follower_for(waypoints: np.ndarray, settings: Settings) -> PurePursuit:
-    """The simulator branch's pure-pursuit controller, within the server's speed limits."""
-    return PurePursuit(waypoints, PursuitConfig(v_max=settings.max_speed, w_max=settings.max_turn_rate,
-                                                goal_tolerance=settings.goal_tolerance))
+    """The simulator branch's pure-pursuit controller for the server's robot, within the server's
+    speed limits and the robot's."""
+    config = PursuitConfig.for_robot(settings.robot_config(), v_max=settings.max_speed,
+                                     w_max=settings.max_turn_rate, goal_tolerance=settings.goal_tolerance)
+    return PurePursuit(waypoints, config)

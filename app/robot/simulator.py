@@ -22,6 +22,7 @@ import numpy as np
 
 from app.robot.scan_slot import ScanSlot
 from app.worker.lifeline import bind_to_parent
+from slam_core.robot_config import RobotConfig
 
 PHYSICS_HZ = 100.0
 SCAN_HZ = 15.0
@@ -52,15 +53,17 @@ class SimHandles:
             self.process.join(timeout)
 
 
-def start_simulator(world: str, seed: int, link: Path, ctx=None) -> tuple[SimHandles, Connection]:
-    """Start the simulator process; its serial device will appear at ``link`` (see :func:`wait_ready`)."""
+def start_simulator(world: str, seed: int, link: Path, robot: RobotConfig,
+                    ctx=None) -> tuple[SimHandles, Connection]:
+    """Start the simulator process for ``robot``; its serial device will appear at ``link`` (see
+    :func:`wait_ready`)."""
     ctx = ctx or mp.get_context("spawn")
     scans = ScanSlot.create(ctx)
     truth = ctx.Array("d", 4)
     stop = ctx.Event()
     parent, child = ctx.Pipe(duplex=False)
     proc = ctx.Process(target=run_simulator,
-                       args=(world, seed, str(link), scans, truth, stop, child, os.getpid()),
+                       args=(world, seed, robot, str(link), scans, truth, stop, child, os.getpid()),
                        name="homebot-sim", daemon=True)
     proc.start()
     child.close()
@@ -78,21 +81,21 @@ def wait_ready(handles: SimHandles, ready: Connection) -> None:
         raise message
 
 
-def run_simulator(world_name: str, seed: int, link: str, scans: ScanSlot, truth, stop, ready,
-                  parent_pid: int) -> None:
+def run_simulator(world_name: str, seed: int, robot_config: RobotConfig, link: str, scans: ScanSlot, truth,
+                  stop, ready, parent_pid: int) -> None:
     """The simulator process: step physics in real time, scan, serve the MCU pty."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the server stops us through ``stop``
     bind_to_parent(parent_pid)  # ... and we end when it dies
     from app.robot_link.virtual_mcu import VirtualMCU
-    from slam_core.sim.lidar import Lidar
+    from slam_core.sim.lidar import Lidar, LidarConfig
     from slam_core.sim.robot import SimRobot
     from slam_core.sim.world import load_world
 
     try:
         world = load_world(world_name)
         rng = np.random.default_rng(seed)
-        robot = SimRobot(world, rng=np.random.default_rng(seed + 1))
-        lidar = Lidar(world)
+        robot = SimRobot(world, robot=robot_config, rng=np.random.default_rng(seed + 1))
+        lidar = Lidar(world, LidarConfig(robot_config.laser))
         lidar.scan(robot.true_pose, rng)  # compile the ray caster before reporting ready
         mcu = VirtualMCU(robot, command_timeout=COMMAND_TIMEOUT, link=link).start()
     except Exception as exc:  # reported to the parent, which raises it

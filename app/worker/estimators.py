@@ -8,9 +8,7 @@ checkpoint pose; the map frame is therefore continuous across worker restarts.
 from __future__ import annotations
 
 import dataclasses
-import json
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
@@ -23,6 +21,8 @@ from slam_core.localization.mcl import MclConfig, MonteCarloLocalizer
 from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.rbpf.config import RBPFConfig
 from slam_core.rbpf.filter import RBPFSlam
+from slam_core.rbpf.laser_mount import LaserMount
+from slam_core.robot_config import RobotConfig
 from slam_core.scan import Scan
 
 
@@ -61,29 +61,22 @@ class FrozenMap:
         return self.grid
 
 
-def laser_mount(settings) -> np.ndarray | None:
+def laser_mount(settings) -> LaserMount:
     """Where the laser sits on the robot: a replayed log's own mount (from its laser and odometry
-    poses), else at the robot's centre (``None``)."""
-    return laser_mount_of(resolve_log(settings.replay)) if settings.replay else None
+    poses) when it records one, else the robot description's."""
+    logged = laser_mount_of(resolve_log(settings.replay)) if settings.replay else None
+    return settings.robot_config().laser.mount if logged is None else LaserMount.of(logged)
 
 
-def slam_config(settings) -> RBPFConfig:
-    """The filter's settings: ``settings.slam_config`` (a ``config.json`` as ``homebot slam --config``
-    takes) or the defaults; a live robot (not a replay) keeps the server's particle count,
-    resolution and update thresholds."""
-    config = RBPFConfig()
-    if settings.slam_config is not None:
-        config = RBPFConfig.from_dict(json.loads(Path(settings.slam_config).read_text()))
-    if settings.replay:
-        return config
-    return dataclasses.replace(config, particles=settings.particles, resolution=settings.resolution,
-                               linear_update=settings.rbpf_linear_update,
-                               angular_update=settings.rbpf_angular_update)
+def effective_robot(settings) -> RobotConfig:
+    """The robot the estimators work with: the robot file's, with a replayed log's own laser mount."""
+    robot = settings.robot_config()
+    return dataclasses.replace(robot, laser=dataclasses.replace(robot.laser, mount=laser_mount(settings)))
 
 
 def _rbpf(settings, pose: np.ndarray, grid: OccupancyGrid | None, hit_sums: np.ndarray | None) -> RBPFSlam:
     """The RBPF SLAM, resumed on the checkpoint's map when there is one."""
-    config = slam_config(settings)
+    config = settings.slam()
     slam = RBPFSlam(config, seed=settings.seed, initial_pose=pose, laser_mount=laser_mount(settings))
     if grid is not None and grid.data.size and abs(grid.resolution - settings.resolution) < 1e-12:
         slam.maps.seed_from_grid(grid, hit_sums)
@@ -109,11 +102,12 @@ def make_estimator(mode: str, settings, checkpoint: Checkpoint | None):
     if mode == "localization":
         if grid is None or not grid.data.size:
             raise ModeUnavailable("localization needs a map: load a saved map or map first")
-        config = MclConfig(min_particles=settings.mcl_min_particles, max_particles=settings.mcl_max_particles)
+        config = MclConfig(min_particles=settings.mcl_min_particles, max_particles=settings.mcl_max_particles,
+                           laser_pose=laser_mount(settings).as_tuple())
         return MonteCarloLocalizer(grid, config, rng=np.random.default_rng(settings.seed), initial_pose=pose)
     if mode == "ekf":
         # Landmarks only: the map shown stays the last occupancy map; landmarks are streamed.
-        return EkfSlam(EkfConfig(), initial_pose=pose)
+        return EkfSlam(EkfConfig(laser_offset=laser_mount(settings).as_tuple()), initial_pose=pose)
     raise ModeUnavailable(f"unknown mode {mode!r}")
 
 

@@ -37,6 +37,7 @@ from app.worker.estimators import (
     FrozenMap,
     ModeUnavailable,
     dead_reckons,
+    laser_mount,
     make_estimator,
     map_with_hits,
     warm_up,
@@ -116,6 +117,7 @@ class Worker:
         self.scans = Latest()
         self.replay: ReplayDriver | None = None
         self.anchor: tuple[np.ndarray, np.ndarray] | None = None
+        self.mount = laser_mount(s)  # the scan's points are drawn from the laser's pose
         if s.replay:
             self.replay = ReplayDriver(s, self.scans, odometry_ring)
             self.sources, self.pairing = [self.replay.feed], self.replay.pairing
@@ -181,7 +183,7 @@ class Worker:
             particles = particles[::stride]
             weights = weights[::stride] if weights is not None else None
         pose = np.asarray(estimate.pose, float)
-        points = transform_points(pose, scan.points()).astype(np.float32)
+        points = transform_points(self.mount.laser_poses(pose), scan.points()).astype(np.float32)
         put_newest(self.states, WorkerState(
             t=time.time(), seq=self.steps, pose=pose, localized=bool(estimate.localized),
             map_to_odom=map_to_odom(pose, odometry.pose), odom_stamp=float(odometry.stamp),
@@ -317,7 +319,7 @@ class Worker:
         if current.grid is None or not current.grid.data.size:
             return None
         config = RBPFConfig(resolution=current.grid.resolution)
-        return Relocalizing(Relocalizer(current.grid, current.hit_sums, config), correction)
+        return Relocalizing(Relocalizer(current.grid, current.hit_sums, config, self.mount), correction)
 
     def _relocalize(self, reading, scan) -> bool:
         """Look for the robot in the restored map; until found, publish the guess and map nothing

@@ -27,6 +27,7 @@ from slam_core.geometry import wrap_angle
 from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.rbpf.config import RBPFConfig
 from slam_core.rbpf.correlative import bounded_search, likelihood_window, max_pool
+from slam_core.rbpf.laser_mount import LaserMount
 from slam_core.rbpf.scan_matcher import P_OCCUPIED, beam_rows, match, pose_likelihood
 from slam_core.rbpf.tiled_map import TiledMaps
 from slam_core.scan import Scan
@@ -54,8 +55,10 @@ class Fix:
 class Relocalizer:
     """Scan matching of live scans against one restored map (see the module docstring)."""
 
-    def __init__(self, grid: OccupancyGrid, hit_sums: np.ndarray | None, config: RBPFConfig | None = None):
+    def __init__(self, grid: OccupancyGrid, hit_sums: np.ndarray | None, config: RBPFConfig | None = None,
+                 mount: LaserMount | None = None):
         self.config = config or RBPFConfig(resolution=grid.resolution)
+        self.mount = mount or LaserMount()  # where the scans' laser sits on the robot
         self.params = self.config.matcher.packed()
         self.maps = TiledMaps(1, grid.resolution, self.config.sensor)
         self.maps.seed_from_grid(grid, hit_sums)
@@ -73,12 +76,16 @@ class Relocalizer:
 
     def locate(self, scan: Scan, guess) -> Fix | None:
         """The robot's pose in the map from ``scan`` (see the module docstring), or ``None``."""
+        fix = self._locate_laser(scan, self.mount.laser_poses(np.asarray(guess, float)))
+        return fix if fix is None else Fix(self.mount.robot_poses(fix.pose), fix.fit, fix.search)
+
+    def _locate_laser(self, scan: Scan, guess: np.ndarray) -> Fix | None:
+        """The laser's pose in the map from its ``scan``, searched around the laser pose ``guess``."""
         matcher = self.config.matcher
         points = beam_rows(scan, matcher.coarse_range, matcher.coarse_beams)[:, :2]
         beams = beam_rows(scan, matcher.max_range, matcher.max_beams)
         if len(beams) < 10:
             return None
-        guess = np.asarray(guess, float)
         res = self.maps.resolution
         start = self._search(points, guess, int(np.ceil(LOCAL_LINEAR_M / res)), LOCAL_ANGULAR,
                              matcher.coarse_angular_step)

@@ -14,19 +14,22 @@ with curvature (``v = v_max / (1 + curvature_gain |kappa|)``) and before sharp
 turns and the goal (``v <= sqrt(2 decel d)``, so it can stop in the distance ``d``
 left before the waypoint's tolerance). It stops within ``goal_tolerance`` of the last waypoint.
 
-Obstacle stop: if any valid point of the latest scan lies in the rectangle
-ahead of the robot, ``radius + stop_distance`` long and ``2 (radius +
-side_margin)`` wide, forward motion stops (turning on the spot stays allowed: the
+Obstacle stop: if any valid point of the latest scan (taken by the laser at
+``laser_mount``) lies in the rectangle ahead of the robot, ``radius + stop_distance``
+long and ``2 (radius + side_margin)`` wide, forward motion stops (turning on the spot stays allowed: the
 robot is a disc) and :attr:`PurePursuit.blocked` is set.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
+from slam_core.geometry import transform_points
+from slam_core.rbpf.laser_mount import LaserMount
+from slam_core.robot_config import RobotConfig
 from slam_core.scan import Scan
 
 #: Smallest forward speed used while a leg is not finished (m/s), so slowing never stalls.
@@ -35,6 +38,11 @@ MIN_SPEED = 0.05
 
 @dataclass(frozen=True)
 class PursuitConfig:
+    """The controller's gains and tolerances; ``robot_radius`` and ``laser_mount`` are the
+    robot's (:meth:`for_robot`)."""
+
+    robot_radius: float
+    laser_mount: LaserMount
     lookahead: float = 0.35
     v_max: float = 0.4
     w_max: float = 1.2
@@ -45,19 +53,25 @@ class PursuitConfig:
     curvature_gain: float = 0.5
     waypoint_tolerance: float = 0.12
     goal_tolerance: float = 0.08
-    robot_radius: float = 0.17
     stop_distance: float = 0.25
     side_margin: float = 0.05
+
+    @classmethod
+    def for_robot(cls, robot: RobotConfig, **overrides) -> PursuitConfig:
+        """The controller of ``robot``: its footprint and laser, speeds within its limits."""
+        config = cls(robot.footprint_radius, robot.laser.mount, **overrides)
+        return replace(config, v_max=min(config.v_max, robot.limits.v_max),
+                       w_max=min(config.w_max, robot.limits.w_max))
 
 
 class PurePursuit:
     """Follow ``waypoints`` ``(k, 2)``: call :meth:`command` with the pose (and scan) each cycle."""
 
-    def __init__(self, waypoints, config: PursuitConfig | None = None):
+    def __init__(self, waypoints, config: PursuitConfig):
         pts = np.asarray(waypoints, dtype=float)
         if pts.ndim != 2 or pts.shape[1] != 2 or len(pts) == 0 or not np.all(np.isfinite(pts)):
             raise ValueError(f"waypoints must be a finite (k, 2) array with k >= 1, got shape {pts.shape}")
-        self.config = config or PursuitConfig()
+        self.config = config
         self.waypoints = pts
         self.target = 0
         self._leg_start: np.ndarray | None = None
@@ -65,7 +79,7 @@ class PurePursuit:
         self.blocked = False
 
     def command(self, pose, scan: Scan | None = None) -> tuple[float, float]:
-        """``(v, w)`` for the robot at ``pose``; ``scan`` (robot frame) enables the obstacle stop."""
+        """``(v, w)`` for the robot at ``pose``; ``scan`` (the laser's) enables the obstacle stop."""
         c = self.config
         pose = np.asarray(pose, dtype=float)
         if self._leg_start is None:
@@ -114,6 +128,8 @@ class PurePursuit:
         pts = scan.points()
         if len(pts) == 0:
             return False
+        if not c.laser_mount.centred:
+            pts = transform_points(np.array(c.laser_mount.as_tuple()), pts)
         ahead = (pts[:, 0] > 0.0) & (pts[:, 0] < c.robot_radius + c.stop_distance)
         return bool(np.any(ahead & (np.abs(pts[:, 1]) < c.robot_radius + c.side_margin)))
 

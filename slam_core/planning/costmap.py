@@ -3,7 +3,9 @@
 Every cell gets a *weight* ``w >= 1`` (the price of one metre through it) or
 ``inf`` (never entered). With ``d`` the exact Euclidean distance (metres, cell
 centre to cell centre, :mod:`slam_core.distance_transform`) to the nearest
-occupied cell, ``r`` the robot radius and ``R`` the inflation radius::
+occupied cell, ``r`` the robot radius (the robot description's footprint radius,
+:mod:`slam_core.robot_config`; by default the simulated robot's) and ``R`` the
+inflation radius::
 
     d <= r        lethal: w = inf    (the robot's centre there would hit the wall)
     r < d <= R    w = 1 + max_cost * exp(-cost_scaling * (d - r))
@@ -19,15 +21,14 @@ forbidden (``unknown_cost=None``: ``w = inf`` but not lethal) or cost an extra
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from slam_core.distance_transform import distance_to_features
 from slam_core.occupancy_grid import FREE_THRESH, OCCUPIED_THRESH, OccupancyGrid
+from slam_core.robot_config import robot_from
 
-#: Default robot radius (m): a 35 cm round home robot.
-ROBOT_RADIUS = 0.18
 #: Default distance (m) beyond which walls add no cost.
 INFLATION_RADIUS = 0.6
 #: Default exponential decay rate (1/m) of the inflation cost.
@@ -42,7 +43,7 @@ UNKNOWN_COST = 2.0
 class CostmapConfig:
     """Inflation and unknown-space policy; ``unknown_cost=None`` forbids unknown cells."""
 
-    robot_radius: float = ROBOT_RADIUS
+    robot_radius: float = field(default_factory=lambda: robot_from(None).footprint_radius)
     inflation_radius: float = INFLATION_RADIUS
     cost_scaling: float = COST_SCALING
     max_cost: float = MAX_COST

@@ -11,11 +11,12 @@ from slam_core.geometry import compose
 
 @dataclass(frozen=True)
 class DiffDriveGeometry:
-    """Wheel radius and separation (m) and encoder ticks per wheel revolution."""
+    """Wheel radius and separation (m) and encoder ticks per wheel revolution (a robot's are in
+    its description, :mod:`slam_core.robot_config`)."""
 
-    wheel_radius: float = 0.035
-    wheel_base: float = 0.23
-    ticks_per_rev: int = 1440
+    wheel_radius: float
+    wheel_base: float
+    ticks_per_rev: int
 
     @property
     def metres_per_tick(self) -> float:

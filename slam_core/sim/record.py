@@ -3,8 +3,8 @@
 Writes into the output folder:
 
 - ``sim.clf`` — per sensing instant an ``ODOM`` line and a ``ROBOTLASER1`` line
-  whose laser and robot poses are the **odometry** pose (what a real robot
-  logs), readable by :class:`slam_core.io.carmen.CarmenReader`. Depth-camera
+  whose robot pose is the **odometry** pose and whose laser pose is the robot's laser
+  mount on it (what a real robot logs), readable by :class:`slam_core.io.carmen.CarmenReader`. Depth-camera
   scans are resampled to evenly spaced bearings first (ROBOTLASER1 needs them).
 - ``groundtruth.txt`` — the true pose of every scan, ``ipc_timestamp x y theta``
   with the same timestamp text as the log (:class:`slam_core.io.trajectory.Trajectory`).
@@ -15,6 +15,7 @@ Writes into the output folder:
   (with the true path), rasterised from the geometry at least as tall as the sensor's
   mounting height (what the scan plane sees).
 - ``world.txt`` — a copy of the world file, so the recording is self-contained.
+- ``robot.yaml`` — the simulated robot's description (``homebot serve --robot`` reads it).
 """
 
 from __future__ import annotations
@@ -56,6 +57,7 @@ class Recording:
     map_yaml: Path
     map_pgm: Path
     map_png: Path
+    robot: Path
     scans: int
     sim_time: float
     tour_completed: bool
@@ -78,14 +80,16 @@ def record_tour(world: World, out_dir, seed: int = 0, sensor: str = "lidar", dur
     frame = sim.last
     with open(out / LOG_NAME, "w") as log:
         log.write(f"# homebot simulator: world {world.name}, sensor {config.sensor}, seed {seed}\n")
-        log.write("# laser and robot poses are wheel odometry; ground truth in groundtruth.txt\n")
-        log.write(f"PARAM robot_wheel_base {config.geometry.wheel_base} sim 0\n")
+        log.write("# robot poses are wheel odometry, laser poses the robot's laser mount on them; "
+                  "ground truth in groundtruth.txt\n")
+        log.write(f"PARAM robot_wheel_base {config.robot.wheels.wheel_base} sim 0\n")
         for frame in sim.tour(duration=duration):
             scan = frame.scan if config.sensor == "lidar" else resample_uniform(frame.scan)
             stamp = f"{frame.time:.6f}"
             tv, rv = frame.velocity
             log.write(odom_line(frame.odometry_pose, tv, rv, frame.time))
-            log.write(robotlaser_line(scan, frame.odometry_pose, frame.odometry_pose, frame.time, tv, rv))
+            laser_pose = config.robot.laser.mount.laser_poses(frame.odometry_pose)
+            log.write(robotlaser_line(scan, laser_pose, frame.odometry_pose, frame.time, tv, rv))
             stamps.append(stamp)
             truth.append(frame.true_pose)
             if progress is not None:
@@ -96,16 +100,18 @@ def record_tour(world: World, out_dir, seed: int = 0, sensor: str = "lidar", dur
     traj = Trajectory(stamps, np.array(truth).reshape(-1, 3))
     gt_path = traj.save(out / GROUND_TRUTH_NAME)
     rel_path = write_relations(traj, out / RELATIONS_NAME)
-    seen_from = config.lidar.mount_height if config.sensor == "lidar" else config.depth.mount_height
+    seen_from = config.robot.laser.height if config.sensor == "lidar" else config.depth.mount_height
     grid = ground_truth_map(world, resolution, seen_from)
     pgm, yml = save_map(grid, out / MAP_STEM)
     png = save_png(grid, out / f"{MAP_STEM}.png", traj.poses,
                    caption=f"{world.name}: ground truth ({len(stamps)} scans)")
     if world.source and Path(world.source).is_file():
         shutil.copyfile(world.source, out / "world.txt")
+    robot = out / "robot.yaml"
+    robot.write_text(config.robot.to_yaml())
     err = frame.odometry_pose - frame.true_pose
     err[2] = float(wrap_angle(err[2]))
-    return Recording(out / LOG_NAME, gt_path, rel_path, yml, pgm, png, len(stamps), frame.time,
+    return Recording(out / LOG_NAME, gt_path, rel_path, yml, pgm, png, robot, len(stamps), frame.time,
                      bool(sim.controller.done), err)
 
 

@@ -10,11 +10,13 @@ Ornstein-Uhlenbeck process (carpet, thresholds) with standard deviation
 ticks with the nominal geometry therefore drifts the way a real robot's does,
 while :attr:`SimRobot.true_pose` is the exact ground truth.
 
-The robot is a disc of ``radius``. Motion is integrated in sub-steps no longer
-than a quarter of the radius (so it cannot tunnel through a wall, which would
-need a step of twice the radius); a sub-step that would bring the disc closer
-than its radius to any wall, furniture edge or leg is cut short by bisection,
-the robot stops there (wheels stopped, ``bumped`` set) and waits for a new command.
+The robot's body, wheels and limits are its :class:`~slam_core.robot_config.RobotConfig`
+(default: the simulated robot's shipped file). It is a disc of ``footprint_radius``.
+Motion is integrated in sub-steps no longer than a quarter of the radius (so it
+cannot tunnel through a wall, which would need a step of twice the radius); a
+sub-step that would bring the disc closer than its radius to any wall, furniture
+edge or leg is cut short by bisection, the robot stops there (wheels stopped,
+``bumped`` set) and waits for a new command.
 """
 
 from __future__ import annotations
@@ -24,7 +26,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from slam_core.sensors.wheel_odometry import DiffDriveGeometry, ticks_to_increment
+from slam_core.robot_config import RobotConfig, robot_from
+from slam_core.sensors.wheel_odometry import ticks_to_increment
 from slam_core.sim.raycast import _clearance
 from slam_core.sim.world import World
 
@@ -32,16 +35,6 @@ from slam_core.sim.world import World
 CONTACT_BISECTIONS = 12
 #: Normal variates drawn at a time for the wheel slip.
 NOISE_BLOCK = 1024
-
-
-@dataclass(frozen=True)
-class RobotLimits:
-    """Speed and acceleration limits: m/s, rad/s, m/s^2, rad/s^2."""
-
-    v_max: float = 0.5
-    w_max: float = 1.5
-    a_max: float = 0.8
-    alpha_max: float = 3.0
 
 
 @dataclass(frozen=True)
@@ -71,15 +64,15 @@ class SimRobot:
     ``true_pose``, dead reckoning from the ticks in ``odometry_pose``.
     """
 
-    def __init__(self, world: World, pose=None, geometry: DiffDriveGeometry | None = None,
-                 limits: RobotLimits | None = None, noise: WheelNoise | None = None,
-                 radius: float = 0.17, rng: np.random.Generator | None = None,
+    def __init__(self, world: World, pose=None, robot: RobotConfig | None = None,
+                 noise: WheelNoise | None = None, rng: np.random.Generator | None = None,
                  obstacle_min_height: float = 0.0):
         self.world = world
-        self.geometry = geometry or DiffDriveGeometry()
-        self.limits = limits or RobotLimits()
+        self.robot = robot or robot_from(None)
+        self.geometry = self.robot.wheels
+        self.limits = self.robot.limits
         self.noise = noise or WheelNoise()
-        self.radius = float(radius)
+        self.radius = float(self.robot.footprint_radius)
         self.rng = rng if rng is not None else np.random.default_rng(0)
         # Anything at least ``obstacle_min_height`` tall blocks the robot's body.
         self._segments, self._circles = world.obstacles(obstacle_min_height)

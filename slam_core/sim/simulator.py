@@ -22,12 +22,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from slam_core.control.pure_pursuit import PurePursuit, PursuitConfig
+from slam_core.robot_config import RobotConfig, robot_from
 from slam_core.scan import Scan
 from slam_core.sensors.depth_to_scan import DEFAULT_BAND_ROWS, depth_to_scan
-from slam_core.sensors.wheel_odometry import DiffDriveGeometry
 from slam_core.sim.depth_camera import DepthCamera, DepthCameraConfig
 from slam_core.sim.lidar import Lidar, LidarConfig
-from slam_core.sim.robot import RobotLimits, SimRobot, WheelNoise
+from slam_core.sim.robot import SimRobot, WheelNoise
 from slam_core.sim.world import World
 
 SENSORS = ("lidar", "depth")
@@ -37,14 +37,15 @@ BLOCKED_TIMEOUT = 5.0
 
 @dataclass(frozen=True)
 class SimConfig:
+    """The simulated ``robot`` (default: the shipped simulated robot), its sensor and noise.
+
+    The depth camera, when it is the sensor, sits at the robot's laser mount."""
+
     sensor: str = "lidar"
     sensing_hz: float = 20.0
     physics_hz: float = 100.0
-    robot_radius: float = 0.17
-    geometry: DiffDriveGeometry = field(default_factory=DiffDriveGeometry)
-    limits: RobotLimits = field(default_factory=RobotLimits)
+    robot: RobotConfig = field(default_factory=lambda: robot_from(None))
     noise: WheelNoise = field(default_factory=WheelNoise)
-    lidar: LidarConfig = field(default_factory=LidarConfig)
     depth: DepthCameraConfig = field(default_factory=DepthCameraConfig)
     depth_band_rows: int = DEFAULT_BAND_ROWS
 
@@ -53,6 +54,10 @@ class SimConfig:
             raise ValueError(f"unknown sensor {self.sensor!r} (choose from {', '.join(SENSORS)})")
         if not (self.sensing_hz > 0 and self.physics_hz >= self.sensing_hz):
             raise ValueError("need physics_hz >= sensing_hz > 0")
+
+    @property
+    def lidar(self) -> LidarConfig:
+        return LidarConfig(self.robot.laser)
 
 
 @dataclass(frozen=True)
@@ -76,8 +81,7 @@ class Simulator:
         self.config = config or SimConfig()
         c = self.config
         robot_rng, self.sensor_rng = np.random.default_rng(seed).spawn(2)
-        self.robot = SimRobot(world, geometry=c.geometry, limits=c.limits, noise=c.noise,
-                              radius=c.robot_radius, rng=robot_rng)
+        self.robot = SimRobot(world, robot=c.robot, noise=c.noise, rng=robot_rng)
         self.lidar = Lidar(world, c.lidar) if c.sensor == "lidar" else None
         self.camera = DepthCamera(world, c.depth) if c.sensor == "depth" else None
         self.period = 1.0 / c.sensing_hz
@@ -92,7 +96,7 @@ class Simulator:
         if self.lidar is not None:
             scan = self.lidar.scan(pose, self.sensor_rng, self.time)
         else:
-            depth = self.camera.render(pose, self.sensor_rng)
+            depth = self.camera.render(self.config.robot.laser.mount.laser_poses(pose), self.sensor_rng)
             scan = depth_to_scan(depth, self.camera.intrinsics, self.config.depth_band_rows,
                                  self.camera.config.range_min, self.camera.config.range_max, self.time)
         self.last = Frame(self.time, pose, self.robot.odometry_pose, self.robot.ticks(),
@@ -114,10 +118,7 @@ class Simulator:
         pts = self.world.tour if waypoints is None else np.asarray(waypoints, dtype=float)
         if len(pts) == 0:
             raise ValueError(f"world {self.world.name!r} has no waypoints to tour")
-        cfg = pursuit or PursuitConfig(robot_radius=self.config.robot_radius,
-                                       v_max=min(PursuitConfig.v_max, self.config.limits.v_max),
-                                       w_max=min(PursuitConfig.w_max, self.config.limits.w_max))
-        controller = PurePursuit(pts, cfg)
+        controller = PurePursuit(pts, pursuit or PursuitConfig.for_robot(self.config.robot))
         self.controller = controller
         end = np.inf if duration is None else self.time + duration
         blocked_since = None
