@@ -1,8 +1,9 @@
-"""The running robot as the server sees it: simulator, worker, navigator, stream pumps, storage.
+"""The running robot as the server sees it: simulator, robot link, worker, navigator, stream pumps, storage.
 
 Built in the app's lifespan. Everything that takes time (the worker's steps, map
-encoding, planning, image files) happens off the event loop: in the worker
-process or in threads.
+encoding, planning, image files, serial I/O) happens off the event loop: in the worker
+process or in threads. The pose is the worker's ``map -> odom`` correction composed with
+the robot link's newest odometry (:mod:`app.worker.frames`).
 """
 
 from __future__ import annotations

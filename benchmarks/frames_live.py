@@ -90,7 +90,9 @@ def main() -> None:
                 time.sleep(0.2)
             summary("served pose error (position)", [errors(s)[0] for s in samples], "m")
             summary("served pose error (heading)", [errors(s)[1] for s in samples], "rad")
-            summary("age of the newest odometry", [s["time"] - s["frames"]["odom_t"] for s in samples], "s")
+            if samples[0].get("frames"):  # (a server before issue 15 has no frames in its status)
+                ages = [s["time"] - s["frames"]["odom_t"] for s in samples]
+                summary("age of the newest odometry", ages, "s")
             summary("age of the worker's last step", [s["time"] - s["worker"]["state_t"] for s in samples],
                     "s")
             poses, _, _ = asyncio.run(pose_rate(server, args.freeze, None))
@@ -99,7 +101,8 @@ def main() -> None:
             poses, before, after = asyncio.run(pose_rate(server, args.freeze, pid))
             served = math.dist((poses[0]["x"], poses[0]["y"]), (poses[-1]["x"], poses[-1]["y"]))
             true = math.dist(before["true_pose"][:2], after["true_pose"][:2])
-            odometry = math.dist(before["frames"]["odom"][:2], after["frames"]["odom"][:2])
+            odometry = (math.dist(before["frames"]["odom"][:2], after["frames"]["odom"][:2])
+                        if before.get("frames") else math.nan)
             print(f"pose messages, worker frozen {args.freeze:.1f} s: {len(poses) / args.freeze:.1f} /s, "
                   f"{len({p['seq'] for p in poses})} worker step(s); served pose moved {served:.3f} m "
                   f"(first to last message), odometry {odometry:.3f} m, true pose {true:.3f} m "

@@ -1,7 +1,8 @@
 """The log as a robot: plays a CARMEN log's laser records into the worker's odometry and scan inputs.
 
 Each laser record becomes one odometry reading (the record's odometry pose, stamped with
-its ipc timestamp) put into the worker's :class:`OdometryHistory`, then its scan (same
+its ipc timestamp) put into the worker's :class:`OdometryHistory` (and, through a
+:class:`~app.grabbers.shared.Fanout`, the server's odometry ring), then its scan (same
 stamp) put into the scan :class:`Latest`, so the worker pairs them exactly as it pairs a
 real robot's. Records are played in the log's own timing divided by ``speed``; with
 ``speed=None`` ("max") each record waits until the worker has stepped the previous one,
