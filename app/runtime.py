@@ -33,7 +33,7 @@ from app.rooms.service import RoomService
 from app.streaming import map_frames
 from app.streaming.hub import Hub
 from app.worker.frames import pose_in_map
-from app.worker.messages import WorkerMessage, WorkerState
+from app.worker.messages import ResumeSession, WorkerMessage, WorkerState
 from app.worker.shared_map import MapSnapshot
 from app.worker.supervisor import WorkerSupervisor
 from app.zones.service import ZoneService
@@ -116,6 +116,8 @@ class Runtime:
         self.supervisor = WorkerSupervisor(s, self.odometry_ring, slot, self._from_relay, start,
                                            self._correction)
         self.supervisor.start()
+        if s.resume_session is not None:  # `homebot serve --resume NAME` (checked before the start)
+            self.supervisor.send(ResumeSession(str(s.session_file(s.resume_session))))
         if ready is not None:
             await asyncio.to_thread(wait_ready, self.sim, ready)
         for coro in (self._stream_ticker(), self._map_pump(), self._status_ticker(), self.navigator.run(),

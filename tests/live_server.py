@@ -69,9 +69,10 @@ class LiveServer:
             cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
         return self
 
-    def start(self) -> LiveServer:
-        """Launch and wait until the worker publishes a map and a pose."""
-        self.launch()
+    def start(self, *args: str) -> LiveServer:
+        """Launch (``args``: extra ``homebot serve`` options) and wait until the worker publishes a
+        map and a pose."""
+        self.launch(*args)
         deadline = time.monotonic() + START_TIMEOUT_S
         while time.monotonic() < deadline:
             if self.proc.poll() is not None:

@@ -4,11 +4,13 @@ continue the session, map the rest; judged by the simulator's true pose and grou
 from __future__ import annotations
 
 import shutil
+import subprocess
+import sys
 
 import numpy as np
 
 from slam_core.session import SUFFIX
-from tests.live_server import LiveServer
+from tests.live_server import ROOT, LiveServer
 from tests.recovery_harness import (
     agreement_with_truth,
     fetch_map,
@@ -47,20 +49,25 @@ def test_a_saved_session_is_continued_after_a_fresh_start_into_one_map(tmp_path)
     finally:
         first.stop()
 
-    # another day: a fresh data dir (an empty map, the robot back at the start) with the session
+    # another day: a fresh data dir (an empty map, the robot back at the start) with the session,
+    # continued with `homebot serve --resume home`
     sessions = tmp_path / "second" / "sessions"
     sessions.mkdir(parents=True)
     shutil.copy(tmp_path / "first" / "sessions" / f"home{SUFFIX}", sessions)
     (sessions / f"broken{SUFFIX}").write_bytes(b"not a session")
-    second = LiveServer(tmp_path / "second").start()
+    second = LiveServer(tmp_path / "second").start("--resume", "home")
     try:
         with second.client() as c:
             assert c.post("/api/sessions/nope/resume").status_code == 404
             r = c.post("/api/sessions/broken/resume")
             assert r.status_code == 409 and r.json()["reason"] == "session_refused", r.text
-            r = c.post("/api/sessions/home/resume")
-            assert r.status_code == 200, r.text
-        status, _ = wait_for(second, localized, 60)
+        seen: set[str] = set()  # worker events (the status shows the last five), polled every 50 ms
+
+        def found_in_the_session(status: dict) -> bool:
+            seen.update(e["event"] for e in status["events"])
+            return {"session_resumed", "relocalized"} <= seen and localized(status)
+
+        status, _ = wait_for(second, found_in_the_session, 60)
         assert pose_error(status) < POSE_BOUND_M, (status["pose"], status["true_pose"])
         drive(second, BEDROOM)
         drive(second, STUDY)
@@ -83,3 +90,13 @@ def test_a_saved_session_is_continued_after_a_fresh_start_into_one_map(tmp_path)
     assert kept > 0.97, kept
     assert whole_cells > 1.3 * half_cells, (whole_cells, half_cells)
     assert whole >= half - 0.01 and whole > 0.9, (whole, half)
+
+
+def test_serve_refuses_a_session_it_cannot_continue_in_one_line(tmp_path):
+    (tmp_path / "sessions").mkdir()
+    (tmp_path / "sessions" / f"broken{SUFFIX}").write_bytes(b"PK\x03\x04 not a session")
+    for name, says in (("nope", "no such session file"), ("broken", "not a readable session file"),
+                       ("a.b", "bad session name")):
+        command = [sys.executable, "-m", "app.cli", "serve", "--data", str(tmp_path), "--resume", name]
+        done = subprocess.run(command, cwd=ROOT, capture_output=True, text=True, timeout=120)
+        assert done.returncode == 2 and says in done.stderr and "Traceback" not in done.stderr, done.stderr

@@ -31,6 +31,9 @@ def register(sub) -> None:
                         "simulated robot")
     p.add_argument("--config", type=Path, default=None,
                    help="SLAM settings: a config.json as `homebot slam --config` takes")
+    p.add_argument("--resume", metavar="SESSION", default=None,
+                   help="continue the mapping session saved as SESSION (DATA/sessions/SESSION.session.npz, "
+                        "see POST api/sessions): the robot is found in its map, then mapping goes on")
     p.set_defaults(run=run)
 
 
@@ -97,10 +100,12 @@ def run(args: argparse.Namespace) -> int:
     from app.core.config import Settings
     from app.core.security import load_or_create_token
     from app.main import create_app
+    from slam_core.session import load_session
 
     overrides = {k: v for k, v in (("host", args.host), ("port", args.port), ("data_dir", args.data),
                                    ("world", args.world), ("robot", args.robot),
-                                   ("slam_config", args.config)) if v is not None}
+                                   ("slam_config", args.config), ("resume_session", args.resume))
+                 if v is not None}
     if args.real:
         overrides["simulation"] = False
     overrides.update(_replay_overrides(args))
@@ -109,6 +114,10 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError("a real robot needs HOMEBOT_SENSOR_SOURCE=module:callable giving scans")
     settings.robot_config()  # a bad robot file is refused here, naming the file and the key
     _check_slam_config(settings)
+    if settings.resume_session is not None:
+        if settings.replay:
+            raise ValueError("--resume continues a robot's mapping session; a replay starts afresh")
+        load_session(settings.session_file(settings.resume_session))  # a bad one is refused here, by name
     write_effective_config(settings)
     token, created = load_or_create_token(settings.data_dir, settings.token)
     url = f"http://{settings.host}:{settings.port}/"

@@ -50,6 +50,8 @@ class Settings(BaseSettings):
     #: The SLAM settings file ``homebot slam --config`` takes (an earlier run's ``config.json``);
     #: ``None``: the SLAM defaults (:class:`slam_core.rbpf.config.RBPFConfig`), as ``homebot slam``'s.
     slam_config: Path | None = None
+    #: Continue this saved mapping session on start (``DATA/sessions/NAME.session.npz``).
+    resume_session: str | None = None
 
     cors_origins: Annotated[list[str], NoDecode] = Field(default_factory=list)
     max_body_bytes: int = Field(64 * 1024, ge=1024)
@@ -144,6 +146,13 @@ class Settings(BaseSettings):
     @property
     def sessions_dir(self) -> Path:
         return self.data_dir / "sessions"
+
+    def session_file(self, name: str) -> Path:
+        """Where the mapping session ``name`` is saved (see :mod:`slam_core.session`)."""
+        from app.db.names import check_name
+        from slam_core.session import SUFFIX
+
+        return self.sessions_dir / f"{check_name(name, 'session name')}{SUFFIX}"
 
     @property
     def replay_dir(self) -> Path:

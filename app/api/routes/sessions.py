@@ -25,12 +25,8 @@ router = APIRouter(prefix="/sessions", tags=["sessions"])
 SessionNameParam = Annotated[SessionName, Path(description="the saved session's name")]
 
 
-def _file(settings, name: str):
-    return settings.sessions_dir / f"{name}{SUFFIX}"
-
-
 def _existing(settings, name: str):
-    path = _file(settings, name)
+    path = settings.session_file(name)
     if not path.is_file():
         raise ApiError(status.HTTP_404_NOT_FOUND, "not_found", f"no saved session named {name!r}")
     return path
@@ -50,7 +46,7 @@ async def create_session(body: SessionBody, runtime: RuntimeDep, settings: Setti
                          response: Response) -> dict:
     """Save the mapping session so far as ``name`` (replacing a session of that name)."""
     settings.sessions_dir.mkdir(parents=True, exist_ok=True)
-    answer = await apply(runtime, response, SaveSession(str(_file(settings, body.name))),
+    answer = await apply(runtime, response, SaveSession(str(settings.session_file(body.name))),
                          refused="session_refused")
     if response.status_code != status.HTTP_202_ACCEPTED:
         response.status_code = status.HTTP_201_CREATED
