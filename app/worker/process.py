@@ -48,6 +48,7 @@ from app.worker.map_limits import check_room, map_box, scan_reach
 from app.worker.pairing import Pair, StampedPairing
 from app.worker.relocalize import Relocalizer
 from app.worker.shared_map import MapTooLarge, SharedMap, grid_cells
+from app.worker.startup_clock import StartupClock
 from slam_core.datasets import resolve_log
 from slam_core.estimator import Estimate
 from slam_core.geometry import compose, relative, transform_points, wrap_angle
@@ -89,8 +90,9 @@ def put_newest(q, item) -> None:
 class Worker:
     """The loop run by :func:`worker_main` (a class so its parts stay small)."""
 
-    def __init__(self, spec: WorkerSpec, commands, states, scan_slot):
+    def __init__(self, spec: WorkerSpec, commands, states, scan_slot, clock: StartupClock | None = None):
         self.settings = Settings(**spec.settings)
+        self.clock = clock or StartupClock()  # until the first pose (an event then)
         self.spec = spec
         self.commands = commands
         self.states = states
@@ -336,7 +338,9 @@ class Worker:
     # the loop
     def run(self) -> None:
         s = self.settings
+        self.clock.mark("checkpoint, estimator, relocalizer")
         warm_up(s, lambda done, total, stage: self._event("warming", done=done, total=total, stage=stage))
+        self.clock.mark("numba kernels")
         for source in self.sources:
             source.start()
         self._event("started", restart=self.spec.restart, mode=self.mode)
@@ -375,8 +379,14 @@ class Worker:
         reading, scan = pair.odometry, pair.scan
         odometry = reading.pose
         self.ticks = reading.ticks
-        if self.relocalizer is not None and not self._relocalize(odometry, scan):
+        relocalizing = self.relocalizer is not None
+        if self.clock is not None:
+            self.clock.mark("first scan")
+        if relocalizing and not self._relocalize(odometry, scan):
+            self._startup_done()
             return
+        if relocalizing and self.clock is not None:
+            self.clock.mark("relocalization")
         if self.anchor is None:
             self.anchor = (np.asarray(odometry, float).copy(), self.pose.copy())
         odo0, pose0 = self.anchor
@@ -403,6 +413,14 @@ class Worker:
         self.trajectory.append(self.pose.copy())
         del self.trajectory[:-TRAJECTORY_KEEP]
         self._publish_state(scan, self._corrected(estimate))
+        self._startup_done()
+
+    def _startup_done(self) -> None:
+        """After the first published pose: where the start-up's time went (an event)."""
+        if self.clock is not None:
+            self.clock.mark("first pose")
+            self._event("startup", stages=self.clock.stages())
+            self.clock = None
 
     def _corrected(self, estimate: Estimate) -> Estimate:
         """The filter's estimate in the map frame: the back end's correction composed with it."""
@@ -516,13 +534,15 @@ def worker_main(spec: WorkerSpec, commands, states, scan_slot) -> None:
 
     signal.signal(signal.SIGTERM, _stop)
     signal.signal(signal.SIGINT, _stop)
+    clock = StartupClock()
+    clock.mark("spawn and imports")
     bind_to_parent(spec.parent_pid)
     try:
         lock = acquire_worker_lock(Path(spec.settings["data_dir"]))
         if lock.ended_pid is not None:
             put_newest(states, {"kind": "event", "event": "ended_stale_worker", "t": time.time(),
                                 "pid": lock.ended_pid})
-        worker = Worker(spec, commands, states, scan_slot)
+        worker = Worker(spec, commands, states, scan_slot, clock)
         worker.run()
     except Exception as exc:
         put_newest(states, {"kind": "event", "event": "crashed", "t": time.time(),
