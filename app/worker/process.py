@@ -20,6 +20,7 @@ import time
 import traceback
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -29,8 +30,6 @@ from app.grabbers.odometry_grabber import OdometryGrabber
 from app.grabbers.odometry_history import OdometryHistory
 from app.grabbers.scan_grabber import ScanGrabber, load_sensor_source
 from app.grabbers.shared import Latest
-from app.replay.log_feed import LogReplay, read_laser_records, replay_name
-from app.replay.recording import ReplayRecording
 from app.worker.checkpoint import load_checkpoint, save_exit_map, save_pose, save_snapshot
 from app.worker.estimators import (
     Checkpoint,
@@ -42,21 +41,24 @@ from app.worker.estimators import (
     warm_up,
 )
 from app.worker.lifeline import bind_to_parent
-from app.worker.live_back_end import BackEndResult, LiveBackEnd
 from app.worker.lockfile import acquire_worker_lock
 from app.worker.map_limits import check_room, map_box, scan_reach
 from app.worker.pairing import Pair, StampedPairing
 from app.worker.relocalize import Relocalizer
 from app.worker.shared_map import MapTooLarge, SharedMap, grid_cells
 from app.worker.startup_clock import StartupClock
+from app.worker.warm_start import BackgroundWarmUp, PreviewMap
 from slam_core.datasets import resolve_log
 from slam_core.estimator import Estimate
 from slam_core.geometry import compose, relative, transform_points, wrap_angle
 from slam_core.io.ros_map import load_map
 from slam_core.occupancy_grid import OccupancyGrid, SensorModel
-from slam_core.pipelines.log_slam import best_updates
 from slam_core.rbpf.config import RBPFConfig
 from slam_core.rbpf.filter import RBPFSlam
+
+if TYPE_CHECKING:  # imported where used: a restarted worker resuming a map needs neither (scipy, graph)
+    from app.replay.recording import ReplayRecording
+    from app.worker.live_back_end import BackEndResult
 
 log = logging.getLogger(__name__)
 
@@ -150,9 +152,15 @@ class Worker:
         # A restored map: find the robot in it before anything is written (app.worker.relocalize).
         self.relocalizer = self._relocalizer() if was_restored else None
         self.relocalizing_from: tuple[np.ndarray, np.ndarray] | None = None  # (odometry, pose) at the start
+        self.warming: BackgroundWarmUp | None = None  # kernels compiling; meanwhile a preview (warm_start)
+        self.preview: PreviewMap | None = None
+        self.deferred: list[tuple] = []  # commands that wait for the kernels
 
     def _open_replay(self, replay_dir: Path) -> np.ndarray:
         """The log takes the robot's place; returns the first record's odometry, the start pose."""
+        from app.replay.log_feed import LogReplay, read_laser_records, replay_name
+        from app.replay.recording import ReplayRecording
+
         s = self.settings
         path = resolve_log(s.replay)
         records, warnings = read_laser_records(path)
@@ -170,6 +178,8 @@ class Worker:
     def _attach_back_end(self, seeded: bool) -> None:
         """The live back end of a particle filter that starts from an empty map (it needs every
         scan of the map; a filter resumed on a checkpoint's map goes on alone)."""
+        from app.worker.live_back_end import LiveBackEnd
+
         self.back_end = None if seeded else LiveBackEnd.attached_to(self.estimator)
         self.solved: BackEndResult | None = None
         self.published_grid: OccupancyGrid | None = None  # optimised map + updates since
@@ -333,24 +343,77 @@ class Worker:
                 command = self.commands.get_nowait()
             except queue.Empty:
                 return
+            if self.warming is not None and command[0] not in ("velocity", "shutdown"):
+                self.deferred.append(command)  # they would rebuild the estimator under the preview
+            else:
+                self._handle(command)
+
+    # start-up
+    def _start_warm_up(self) -> None:
+        """Compile (or load) the kernels: in the background with a preview meanwhile
+        (:mod:`app.worker.warm_start`), except for a replay, whose feed waits for every step."""
+        s = self.settings
+
+        def progress(done, total, stage):
+            self._event("warming", done=done, total=total, stage=stage)
+
+        mode = "mapping" if isinstance(self.estimator, RBPFSlam) else self.mode
+        if self.replay is not None:
+            warm_up(s, progress, mode)
+            return
+        if mode == "mapping" and self.relocalizer is None:
+            self.preview = PreviewMap(s.resolution, self.estimator.mount, s.map_capacity_cells)
+        self.warming = BackgroundWarmUp(s, mode, progress)
+
+    def _warmed(self) -> None:
+        """The kernels are ready: the filter catches up on the preview's scans, deferred commands run."""
+        self.warming = None
+        preview, self.preview = self.preview, None
+        for pair in preview.pairs if preview is not None else ():
+            self._step(pair, publish=False)
+        self._event("started", restart=self.spec.restart, mode=self.mode)
+        commands, self.deferred = self.deferred, []
+        for command in commands:
             self._handle(command)
+
+    def _preview_step(self, pair: Pair) -> None:
+        """While the kernels compile: publish the odometry's pose (not localized) and draw the preview."""
+        if self.clock is not None:
+            self.clock.mark("first scan")
+        self.pose = self._anchored(pair.odometry.pose)  # not checkpointed: the filter has not started
+        if self.preview is not None:
+            self.preview.add(pair, self.pose)
+        self._publish_state(pair.scan, Estimate(pose=self.pose.copy(), localized=False))
+        self._startup_done()
+
+    def _anchored(self, odometry) -> np.ndarray:
+        """The odometry in the map frame: re-anchored at the pose the worker (re)started from."""
+        if self.anchor is None:
+            self.anchor = (np.asarray(odometry, float).copy(), self.pose.copy())
+        odo0, pose0 = self.anchor
+        return compose(pose0, relative(odo0, odometry))
 
     # the loop
     def run(self) -> None:
         s = self.settings
         self.clock.mark("checkpoint, estimator, relocalizer")
-        warm_up(s, lambda done, total, stage: self._event("warming", done=done, total=total, stage=stage))
-        self.clock.mark("numba kernels")
+        self._start_warm_up()
+        self.clock.mark("kernels needed first")
         for source in self.sources:
             source.start()
-        self._event("started", restart=self.spec.restart, mode=self.mode)
+        if self.warming is None:
+            self._event("started", restart=self.spec.restart, mode=self.mode)
         reported_healthy = False
         next_map = next_checkpoint = next_pose_save = time.monotonic()
         try:
             while not self.stop.is_set():
                 self._drain_commands()
+                if self.warming is not None and self.warming.done():
+                    self._warmed()
                 pair = self.pairing.next(WAIT_S)
-                if pair is not None:
+                if pair is not None and self.warming is not None:
+                    self._preview_step(pair)
+                elif pair is not None:
                     self._step(pair)
                     if self.replay is not None:
                         self.feed.mark_stepped(pair.scan_seq - 1)  # stepped or skipped, the feed goes on
@@ -375,7 +438,7 @@ class Worker:
         finally:
             self._exit()
 
-    def _step(self, pair: Pair) -> None:
+    def _step(self, pair: Pair, publish: bool = True) -> None:
         reading, scan = pair.odometry, pair.scan
         odometry = reading.pose
         self.ticks = reading.ticks
@@ -387,10 +450,7 @@ class Worker:
             return
         if relocalizing and self.clock is not None:
             self.clock.mark("relocalization")
-        if self.anchor is None:
-            self.anchor = (np.asarray(odometry, float).copy(), self.pose.copy())
-        odo0, pose0 = self.anchor
-        odometry = compose(pose0, relative(odo0, odometry))
+        odometry = self._anchored(odometry)
         if not self._room_to_map(odometry, scan):
             return
         updated = self.estimator.step(odometry, scan)
@@ -412,8 +472,9 @@ class Worker:
         self.rate_hz = self._step_rate.rate(now)
         self.trajectory.append(self.pose.copy())
         del self.trajectory[:-TRAJECTORY_KEEP]
-        self._publish_state(scan, self._corrected(estimate))
-        self._startup_done()
+        if publish:
+            self._publish_state(scan, self._corrected(estimate))
+            self._startup_done()
 
     def _startup_done(self) -> None:
         """After the first published pose: where the start-up's time went (an event)."""
@@ -436,6 +497,8 @@ class Worker:
         result = self.back_end.take() if self.back_end is not None else None
         if result is None:
             return
+        from slam_core.pipelines.log_slam import best_updates
+
         best = best_updates(self.estimator).poses
         if result.loop_edges > self.loop_edges_seen:
             self.loop_edges_seen = result.loop_edges
@@ -498,6 +561,8 @@ class Worker:
         return replace(estimate, pose=compose(estimate.pose, motion), particles=particles)
 
     def _published_map(self) -> OccupancyGrid | None:
+        if self.preview is not None:
+            return self.preview.grid
         return self.published_grid if self.published_grid is not None else self.estimator.occupancy_map()
 
     def _publish_map(self) -> None:
