@@ -5,9 +5,12 @@ compiled), then again on the cache the first run filled ("warm", every kernel lo
 CPU seconds of the thread that compiles (``time.thread_time``), exclusive of the kernels compiled
 inside a kernel's own compilation, so the rows add up to the stage's total.
 
-    python benchmarks/numba_profile.py [--top 25]
+    python benchmarks/numba_profile.py [--stage mapping|localization|ekf|slam] [--top 25]
 
-The stage is the worker's :func:`app.worker.estimators.warm_up`.
+Stages: ``mapping``, ``localization``, ``ekf`` are the worker's
+:func:`app.worker.estimators.warm_up` for that mode; ``slam`` is ``homebot slam`` (filter and
+loop-closing back end) on the first 150 lines of mit-csail, as ``benchmarks/slam_datasets.py``
+times it.
 """
 
 from __future__ import annotations
@@ -23,6 +26,7 @@ from collections import defaultdict
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
+SLICE_LINES = 150
 
 
 def profiled(stage: str) -> dict:
@@ -56,9 +60,26 @@ def profiled(stage: str) -> dict:
     t0 = time.process_time()
     wall = time.perf_counter()
     settings = Settings(_env_file=None)
-    estimators.warm_up(settings)
+    if stage == "slam":
+        slam_slice()
+    else:
+        estimators.warm_up(settings, mode=stage)
     return {"import_cpu": t_import, "stage_cpu": time.process_time() - t0,
             "stage_wall": time.perf_counter() - wall, "costs": dict(costs)}
+
+
+def slam_slice() -> None:
+    """``homebot slam`` on the first :data:`SLICE_LINES` lines of mit-csail, in this process."""
+    from app.cli import main
+    from slam_core.datasets import BUNDLED
+    from slam_core.io.carmen import open_log
+
+    with tempfile.TemporaryDirectory(prefix="numba-profile-slam-") as tmp:
+        tiny = Path(tmp) / "tiny.clf"
+        with open_log(BUNDLED["mit-csail"][0]) as src, open(tiny, "wb") as dst:
+            for _, line in zip(range(SLICE_LINES), src, strict=False):
+                dst.write(line)
+        assert main(["slam", str(tiny), "--out", str(Path(tmp) / "out")]) == 0
 
 
 def run(stage: str, cache: str) -> dict:
@@ -71,6 +92,7 @@ def run(stage: str, cache: str) -> dict:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--stage", choices=("mapping", "localization", "ekf", "slam"), default="mapping")
     parser.add_argument("--top", type=int, default=25)
     parser.add_argument("--child", help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -78,9 +100,9 @@ def main() -> int:
         print(json.dumps(profiled(args.child)))
         return 0
     with tempfile.TemporaryDirectory(prefix="numba-profile-") as cache:
-        cold = run("warm_up", cache)
-        warm = run("warm_up", cache)
-    print(f"warm_up: load average {os.getloadavg()[0]:.1f}")
+        cold = run(args.stage, cache)
+        warm = run(args.stage, cache)
+    print(f"{args.stage}: load average {os.getloadavg()[0]:.1f}")
     for name, r in (("cold", cold), ("warm", warm)):
         print(f"  {name}: imports {r['import_cpu']:.2f} s CPU; stage {r['stage_cpu']:.2f} s CPU "
               f"({r['stage_wall']:.2f} s wall); kernels {sum(r['costs'].values()):.2f} s CPU")

@@ -178,9 +178,11 @@ class Worker:
     def _attach_back_end(self, seeded: bool) -> None:
         """The live back end of a particle filter that starts from an empty map (it needs every
         scan of the map; a filter resumed on a checkpoint's map goes on alone)."""
-        from app.worker.live_back_end import LiveBackEnd
+        self.back_end = None
+        if not seeded:
+            from app.worker.live_back_end import LiveBackEnd
 
-        self.back_end = None if seeded else LiveBackEnd.attached_to(self.estimator)
+            self.back_end = LiveBackEnd.attached_to(self.estimator)
         self.solved: BackEndResult | None = None
         self.published_grid: OccupancyGrid | None = None  # optimised map + updates since
 
