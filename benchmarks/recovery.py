@@ -8,7 +8,9 @@ Prints, each with min / median / max over the tries:
   from the launch to the first pose and to "localized", and the pose error then;
 - map cells kept (known cells after a restart / before) and the map's agreement with the
   ground-truth map, against a run of the same length without kills;
-- child processes still alive 3 s after a SIGKILL of the server.
+- child processes still alive 3 s after a SIGKILL of the server;
+- where each new worker's start-up went: wall and CPU seconds per stage, median over the tries
+  (the worker's ``startup`` event, :mod:`app.worker.startup_clock`).
 
     python benchmarks/recovery.py [--tries 10] [--drive 30]
 """
@@ -56,6 +58,20 @@ def summary(name: str, values: list[float], unit: str) -> None:
               f"max {max(values):8.3f} {unit}  (n={len(values)})")
 
 
+def startup_stages(status: dict, into: dict[str, list[list[float]]]) -> None:
+    """Add the newest ``startup`` event's stages (wall, CPU seconds) to ``into``."""
+    event = next((e for e in reversed(status["events"]) if e["event"] == "startup"), None)
+    for stage, seconds in (event or {}).get("stages", {}).items():
+        into.setdefault(stage, []).append(seconds)
+
+
+def stage_summary(name: str, stages: dict[str, list[list[float]]]) -> None:
+    for stage, values in stages.items():
+        wall = statistics.median(v[0] for v in values)
+        cpu = statistics.median(v[1] for v in values)
+        print(f"  {name} start-up, {stage:38s} median {wall:6.3f} s wall {cpu:6.3f} s CPU  (n={len(values)})")
+
+
 def known_cells(server: LiveServer, directory: Path) -> tuple[int, float]:
     grid = fetch_map(server, directory)
     return int((grid.trinary() >= 0).sum()), agreement_with_truth(grid)[0]
@@ -63,12 +79,13 @@ def known_cells(server: LiveServer, directory: Path) -> tuple[int, float]:
 
 def worker_kills(work: Path, tries: int, drive: float) -> None:
     server = LiveServer(work / "kills", env=TOUR).start()
-    first, back, errors = [], [], []
+    first, back, errors, stages = [], [], [], {}
     try:
         time.sleep(drive)
         for _ in range(tries):
             _, to_pose = kill_worker(server)
-            _, to_localized = wait_for(server, localized, TIMEOUT_S)
+            status, to_localized = wait_for(server, localized, TIMEOUT_S)
+            startup_stages(status, stages)
             first.append(to_pose)
             back.append(to_pose + to_localized)
             time.sleep(3.0)
@@ -85,6 +102,7 @@ def worker_kills(work: Path, tries: int, drive: float) -> None:
     summary("worker kill: first pose", first, "s")
     summary("worker kill: localized", back, "s")
     summary("worker kill: pose error 3 s later", errors, "m")
+    stage_summary("worker kill:", stages)
     print(f"map agreement with the truth: {agreement:.4f} after {tries} kills, "
           f"{reference_agreement:.4f} without kills ({cells} known cells)")
 
@@ -92,7 +110,7 @@ def worker_kills(work: Path, tries: int, drive: float) -> None:
 def server_restarts(work: Path, tries: int, drive: float, how: signal.Signals) -> None:
     data = work / f"restart-{how.name}"
     server = LiveServer(data, env=TOUR).start()
-    first, back, errors, kept = [], [], [], []
+    first, back, errors, kept, stages = [], [], [], [], {}
     try:
         time.sleep(drive)
         for _ in range(tries):
@@ -106,6 +124,7 @@ def server_restarts(work: Path, tries: int, drive: float, how: signal.Signals) -
             first.append(time.monotonic() - launched)
             status, _ = wait_for(server, localized, TIMEOUT_S)
             back.append(time.monotonic() - launched)
+            startup_stages(status, stages)
             errors.append(pose_error(status))
             time.sleep(3.0)
             kept.append(known_cells(server, work / "after")[0] / before)
@@ -115,6 +134,7 @@ def server_restarts(work: Path, tries: int, drive: float, how: signal.Signals) -
     summary(f"server {how.name}: localized after the launch", back, "s")
     summary(f"server {how.name}: pose error when localized", errors, "m")
     summary(f"server {how.name}: map cells kept (after / before)", kept, "")
+    stage_summary(f"server {how.name}:", stages)
 
 
 def wait_for_server(server: LiveServer, condition) -> dict:

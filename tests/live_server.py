@@ -28,6 +28,13 @@ def until(condition, timeout: float, what: str):
     raise AssertionError(f"timed out waiting for {what}")
 
 
+def ready(status: dict) -> bool:
+    """A map and a pose, the warm-up over, and the filter stepping or re-localizing."""
+    worker = status["worker"]
+    return (status.get("map") is not None and status.get("pose") is not None and status["preparing"] is None
+            and bool(worker["steps"] or worker["relocalizing"]))
+
+
 def free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
@@ -71,7 +78,8 @@ class LiveServer:
 
     def start(self, *args: str) -> LiveServer:
         """Launch (``args``: extra ``homebot serve`` options) and wait until the worker publishes a
-        map and a pose."""
+        map and a pose from its kernels: a filter step, or the search for the robot in a restored
+        map (the preview that a fresh install shows while numba compiles does not count)."""
         self.launch(*args)
         deadline = time.monotonic() + START_TIMEOUT_S
         while time.monotonic() < deadline:
@@ -80,7 +88,7 @@ class LiveServer:
             try:
                 with self.client() as c:
                     status = c.get("/api/status").json()
-                if status.get("map") is not None and status.get("pose") is not None:
+                if ready(status):
                     return self
             except (httpx.HTTPError, ValueError, OSError):
                 pass

@@ -14,7 +14,6 @@ import numpy as np
 
 from app.worker.relocalize import Relocalizer
 from slam_core.datasets import resolve_log
-from slam_core.ekf.ekf_slam import EkfConfig, EkfSlam
 from slam_core.estimator import Estimate
 from slam_core.io.carmen import laser_mount_of
 from slam_core.localization.mcl import MclConfig, MonteCarloLocalizer
@@ -107,13 +106,16 @@ def make_estimator(mode: str, settings, checkpoint: Checkpoint | None):
         return MonteCarloLocalizer(grid, config, rng=np.random.default_rng(settings.seed), initial_pose=pose)
     if mode == "ekf":
         # Landmarks only: the map shown stays the last occupancy map; landmarks are streamed.
+        from slam_core.ekf.ekf_slam import EkfConfig, EkfSlam  # scipy: imported when the mode is used
+
         return EkfSlam(EkfConfig(laser_offset=laser_mount(settings).as_tuple()), initial_pose=pose)
     raise ModeUnavailable(f"unknown mode {mode!r}")
 
 
 def dead_reckons(estimator) -> bool:
-    """Whether ``estimate()`` already follows the odometry between filter updates."""
-    return isinstance(estimator, EkfSlam | FrozenMap)
+    """Whether ``estimate()`` already follows the odometry between filter updates (everything but
+    the particle filters, which update only every so many centimetres)."""
+    return not isinstance(estimator, RBPFSlam | MonteCarloLocalizer)
 
 
 def available_modes() -> tuple[str, ...]:
@@ -124,30 +126,36 @@ def available_modes() -> tuple[str, ...]:
 WARM_UP_BEAMS = 90
 
 
-#: What :func:`warm_up` prepares, in order (shown while it runs).
+#: What :func:`warm_up` prepares in mapping mode, in order (shown while it runs).
 WARM_UP_STAGES = ("particle filter: first scan", "particle filter: update", "re-localization")
 
 
-def warm_up(settings, progress=None) -> None:
-    """Compile (or load from numba's cache) the mapping kernels before the first real step.
+def warm_up(settings, progress=None, mode: str = "mapping") -> None:
+    """Compile (or load from numba's cache) the kernels of ``mode`` before its first real step.
 
     A first update compiled lazily would stall the live loop for a long time on a
-    fresh install; a two-particle filter on a synthetic round room does it up front, and
-    a re-localization in its map compiles the searches a restart needs. ``progress(done,
-    total, stage)`` is called before each of :data:`WARM_UP_STAGES`.
+    fresh install; in mapping mode a two-particle filter on a synthetic round room does it
+    up front, and a re-localization in its map compiles the searches a restart needs. The
+    other modes (their filters compile on their first step) prepare only the re-localization,
+    in a map drawn from the same scan. ``progress(done, total, stage)`` is called before each stage.
     """
     config = RBPFConfig(particles=2, resolution=settings.resolution, linear_update=0.01, angular_update=0.01)
-    slam = RBPFSlam(config, seed=0)
     angles = np.linspace(-np.pi, np.pi, WARM_UP_BEAMS, endpoint=False)
     scan = Scan(angles, np.full(WARM_UP_BEAMS, 2.0), 0.1, 8.0)
+    guess = np.array([0.3, 0.0, 0.0])
+    if mode == "mapping":
+        slam = RBPFSlam(config, seed=0)
+        stages = (lambda: slam.step(np.zeros(3), scan), lambda: slam.step(np.array([0.05, 0.0, 0.02]), scan),
+                  lambda: Relocalizer(*map_with_hits(slam), config).locate(scan, guess))
+        names = WARM_UP_STAGES
+    else:
+        def relocalize() -> None:
+            grid = OccupancyGrid(settings.resolution)
+            grid.integrate(scan, np.zeros(3))
+            Relocalizer(grid, None, config).locate(scan, guess)
 
-    def relocalize() -> None:
-        grid, hits = map_with_hits(slam)
-        Relocalizer(grid, hits, config).locate(scan, np.array([0.3, 0.0, 0.0]))
-
-    stages = (lambda: slam.step(np.zeros(3), scan), lambda: slam.step(np.array([0.05, 0.0, 0.02]), scan),
-              relocalize)
-    for done, (name, stage) in enumerate(zip(WARM_UP_STAGES, stages, strict=True)):
+        stages, names = (relocalize,), WARM_UP_STAGES[-1:]
+    for done, (name, stage) in enumerate(zip(names, stages, strict=True)):
         if progress is not None:
-            progress(done, len(WARM_UP_STAGES), name)
+            progress(done, len(names), name)
         stage()

@@ -64,6 +64,8 @@ from app.worker.relocalize import Relocalizer
 from app.worker.relocalizing import Relocalizing
 from app.worker.replay_driver import ReplayDriver
 from app.worker.shared_map import MapTooLarge, SharedMap, grid_cells
+from app.worker.startup_clock import StartupClock
+from app.worker.warm_start import BackgroundWarmUp, PreviewMap
 from slam_core.estimator import Estimate
 from slam_core.geometry import compose, relative, transform_points
 from slam_core.io.ros_map import load_map
@@ -106,8 +108,10 @@ def put_newest(q, item) -> None:
 class Worker:
     """The loop run by :func:`worker_main` (a class so its parts stay small)."""
 
-    def __init__(self, spec: WorkerSpec, commands, states, scan_slot, odometry_ring):
+    def __init__(self, spec: WorkerSpec, commands, states, scan_slot, odometry_ring,
+                 clock: StartupClock | None = None):
         self.settings = Settings(**spec.settings)
+        self.clock = clock or StartupClock()  # until the first pose (an event then)
         self.spec = spec
         self.commands = commands
         self.states = states
@@ -167,6 +171,9 @@ class Worker:
         # A restored map: find the robot in it before anything is written (app.worker.relocalize).
         correction = None if spec.map_to_odom is None else np.array(spec.map_to_odom, float)
         self.relocalizing = self._relocalizing(correction) if was_restored else None
+        self.warming: BackgroundWarmUp | None = None  # kernels compiling; meanwhile a preview (warm_start)
+        self.preview: PreviewMap | None = None
+        self.deferred: list[Command] = []  # commands that wait for the kernels
 
     # messages to the server
     def _event(self, event: str, **fields) -> None:
@@ -336,21 +343,79 @@ class Worker:
                     pose=[round(float(v), 4) for v in fix.pose])
         return True
 
+    def _drain_commands(self) -> None:
+        for command in waiting_commands(self.commands):
+            if self.warming is not None and not isinstance(command, Shutdown):
+                self.deferred.append(command)  # they would rebuild the estimator under the preview
+            else:
+                self._handle(command)
+
+    # start-up
+    def _start_warm_up(self) -> None:
+        """Compile (or load) the kernels: in the background with a preview meanwhile
+        (:mod:`app.worker.warm_start`), except for a replay, whose feed waits for every step."""
+        s = self.settings
+
+        def progress(done, total, stage):
+            self._event("warming", done=done, total=total, stage=stage)
+
+        mode = "mapping" if isinstance(self.estimator, RBPFSlam) else self.mode
+        if self.replay is not None:
+            warm_up(s, progress, mode)
+            return
+        if mode == "mapping" and self.relocalizing is None:
+            self.preview = PreviewMap(s.resolution, self.estimator.mount, s.map_capacity_cells)
+        self.warming = BackgroundWarmUp(s, mode, progress)
+
+    def _warmed(self) -> None:
+        """The kernels are ready: the filter catches up on the preview's scans, deferred commands run."""
+        self.warming = None
+        preview, self.preview = self.preview, None
+        for pair in preview.pairs if preview is not None else ():
+            self._step(pair, publish=False)
+        self._event("started", restart=self.spec.restart, mode=self.mode)
+        commands, self.deferred = self.deferred, []
+        for command in commands:
+            self._handle(command)
+
+    def _preview_step(self, pair: Pair) -> None:
+        """While the kernels compile: publish the odometry's pose (not localized) and draw the preview."""
+        if self.clock is not None:
+            self.clock.mark("first scan")
+        self.pose = self._anchored(pair.odometry.pose)  # not checkpointed: the filter has not started
+        if self.preview is not None:
+            self.preview.add(pair, self.pose)
+        self._publish_state(pair.scan, Estimate(pose=self.pose.copy(), localized=False), pair.odometry)
+        self._startup_done()
+
+    def _anchored(self, odometry) -> np.ndarray:
+        """The odometry in the map frame: re-anchored at the pose the worker (re)started from."""
+        if self.anchor is None:
+            self.anchor = (np.asarray(odometry, float).copy(), self.pose.copy())
+        odo0, pose0 = self.anchor
+        return compose(pose0, relative(odo0, odometry))
+
     # the loop
     def run(self) -> None:
         s = self.settings
-        warm_up(s, lambda done, total, stage: self._event("warming", done=done, total=total, stage=stage))
+        self.clock.mark("checkpoint, estimator, relocalizer")
+        self._start_warm_up()
+        self.clock.mark("kernels needed first")
         for source in self.sources:
             source.start()
-        self._event("started", restart=self.spec.restart, mode=self.mode)
+        if self.warming is None:
+            self._event("started", restart=self.spec.restart, mode=self.mode)
         reported_healthy = False
         next_map = next_checkpoint = next_pose_save = time.monotonic()
         try:
             while not self.stop.is_set():
-                for command in waiting_commands(self.commands):
-                    self._handle(command)
+                self._drain_commands()
+                if self.warming is not None and self.warming.done():
+                    self._warmed()
                 pair = self.pairing.next(WAIT_S)
-                if pair is not None:
+                if pair is not None and self.warming is not None:
+                    self._preview_step(pair)
+                elif pair is not None:
                     self._step(pair)
                     if self.replay is not None:
                         self.replay.taken(pair.scan_seq)  # stepped or skipped, the feed goes on
@@ -375,16 +440,19 @@ class Worker:
         finally:
             self._exit()
 
-    def _step(self, pair: Pair) -> None:
+    def _step(self, pair: Pair, publish: bool = True) -> None:
         reading, scan = pair.odometry, pair.scan
         odometry = reading.pose
         self.ticks = reading.ticks
-        if self.relocalizing is not None and not self._relocalize(reading, scan):
+        relocalizing = self.relocalizing is not None
+        if self.clock is not None:
+            self.clock.mark("first scan")
+        if relocalizing and not self._relocalize(reading, scan):
+            self._startup_done()
             return
-        if self.anchor is None:
-            self.anchor = (np.asarray(odometry, float).copy(), self.pose.copy())
-        odo0, pose0 = self.anchor
-        odometry = compose(pose0, relative(odo0, odometry))
+        if relocalizing and self.clock is not None:
+            self.clock.mark("relocalization")
+        odometry = self._anchored(odometry)
         if not self._room_to_map(odometry, scan):
             return
         updated = self.estimator.step(odometry, scan)
@@ -405,7 +473,16 @@ class Worker:
         self.rate_hz = self._step_rate.rate(now)
         self.trajectory.append(self.pose.copy())
         del self.trajectory[:-TRAJECTORY_KEEP]
-        self._publish_state(scan, self.loops.corrected(estimate), reading)
+        if publish:
+            self._publish_state(scan, self.loops.corrected(estimate), reading)
+            self._startup_done()
+
+    def _startup_done(self) -> None:
+        """After the first published pose: where the start-up's time went (an event)."""
+        if self.clock is not None:
+            self.clock.mark("first pose")
+            self._event("startup", stages=self.clock.stages())
+            self.clock = None
 
     def _take_back_end(self) -> None:
         """Use a finished solve (:class:`~app.worker.loop_closing.LoopClosing`); one that closed a
@@ -451,6 +528,8 @@ class Worker:
         return replace(estimate, pose=compose(estimate.pose, motion), particles=particles)
 
     def _published_map(self) -> OccupancyGrid | None:
+        if self.preview is not None:
+            return self.preview.grid
         return self.loops.published_map(self.estimator)
 
     def _publish_map(self) -> None:
@@ -485,12 +564,14 @@ def worker_main(spec: WorkerSpec, commands, states, scan_slot, odometry_ring) ->
 
     signal.signal(signal.SIGTERM, _stop)
     signal.signal(signal.SIGINT, _stop)
+    clock = StartupClock()
+    clock.mark("spawn and imports")
     bind_to_parent(spec.parent_pid)
     try:
         lock = acquire_worker_lock(Path(spec.settings["data_dir"]))
         if lock.ended_pid is not None:
             put_newest(states, WorkerEvent("ended_stale_worker", time.time(), {"pid": lock.ended_pid}))
-        worker = Worker(spec, commands, states, scan_slot, odometry_ring)
+        worker = Worker(spec, commands, states, scan_slot, odometry_ring, clock)
         worker.run()
     except Exception as exc:
         put_newest(states, WorkerEvent("crashed", time.time(), {"detail": f"{type(exc).__name__}: {exc}",
