@@ -245,7 +245,8 @@ class Worker:
         self.pose, self.map_name = checkpoint.pose, checkpoint.map_name
         self.kept_grid, self.kept_hits = checkpoint.grid, checkpoint.hit_sums
         self.map_changed = True
-        self.loops.attach(self.estimator, seeded=checkpoint.grid is not None, prior=prior)
+        seeded = checkpoint.grid is not None and checkpoint.grid.data.size > 0  # a new map is empty
+        self.loops.attach(self.estimator, seeded=seeded, prior=prior)
         self.anchor = None
         self.updated_at = None
         self.map_written = False

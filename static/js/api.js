@@ -111,4 +111,16 @@ export class Api {
   deleteMap(name) {
     return this.request("DELETE", `maps/${encodeURIComponent(name)}`);
   }
+  sessions() {
+    return this.request("GET", "sessions");
+  }
+  saveSession(name) {
+    return this.request("POST", "sessions", { name });
+  }
+  resumeSession(name) {
+    return this.request("POST", `sessions/${encodeURIComponent(name)}/resume`);
+  }
+  deleteSession(name) {
+    return this.request("DELETE", `sessions/${encodeURIComponent(name)}`);
+  }
 }

@@ -5,6 +5,7 @@ import { Api } from "./api.js";
 import { Connection } from "./connection.js";
 import { decodeMapFrame } from "./mapframe.js";
 import { Panels } from "./panels.js";
+import { SessionsPanel } from "./sessions.js";
 import { PointerControl } from "./pointer.js";
 import { Renderer } from "./renderer.js";
 import { RoomsAndZones } from "./rooms.js";
@@ -55,6 +56,12 @@ class Dashboard {
       notify: (message) => this.toast(message),
       fail: (error) => this.fail(error),
       onPickPlace: () => this.setTool("place"),
+    });
+
+    this.sessions = new SessionsPanel({
+      api: this.api,
+      notify: (message) => this.toast(message),
+      fail: (error) => this.fail(error),
     });
 
     this.roomsZones = new RoomsAndZones({
@@ -220,6 +227,7 @@ class Dashboard {
   refreshLists() {
     this.panels.refreshPlaces();
     this.panels.refreshMaps();
+    this.sessions.refresh();
   }
 
   // Stream ----------------------------------------------------------------------------------------

@@ -45,20 +45,48 @@ def test_a_saved_map_loaded_from_the_dashboard_keeps_the_robot_localized(page, h
 
     r = server.api("POST", "goal", json={"x": HALL[0], "y": HALL[1]})
     assert r.status_code == 202, r.text
-    gaps, pills = [], set()
+    gaps, pills = [], []
     deadline = time.monotonic() + DRIVE_TIMEOUT_S
     while time.monotonic() < deadline:
         status = server.api("GET", "status").json()
         shown = page.evaluate("() => window.homebot.state.pose")
         true = status["true_pose"]
         gaps.append(math.hypot(shown["x"] - true[0], shown["y"] - true[1]))
-        pills.add(page.locator("#st-loc").inner_text())
+        pills.append(page.locator("#st-loc").inner_text())
         if status["nav"]["state"] != "driving":
             break
         time.sleep(0.25)
     assert status["mode"] == "localization" and status["nav"]["state"] == "arrived", status["nav"]
-    assert pills == {"localized"}, pills
-    assert len(gaps) > 10 and max(gaps) < POSE_BOUND_M, max(gaps)
+    # the pill says what the worker says: localized nearly all the way (a doorway may cost a scan's fit)
+    assert set(pills) <= {"localized", "not localized"}
+    assert pills.count("localized") >= 0.9 * len(pills) and pills[-1] == "localized", pills
+    assert len(gaps) > 10 and max(gaps) < POSE_BOUND_M, (max(gaps), gaps[:5], status["events"])
     assert math.hypot(true[0] - HALL[0], true[1] - HALL[1]) < 0.5
     page.screenshot(path=str(artifacts / "dashboard-localization.png"))
+    assert page.js_errors == []
+
+
+def test_a_mapping_session_is_saved_and_continued_from_the_dashboard(page, homebot_server):
+    server = homebot_server
+    # a new map: its loop-closing back end holds every update (a loaded map has no back end)
+    r = server.api("PUT", "mode", json={"mode": "mapping", "new_map": True})
+    assert r.status_code == 200, r.text
+    status = drive(server, KITCHEN)
+    assert status["nav"]["state"] == "arrived", status["nav"]
+    page.goto(f"{server.url}?token={server.token}")
+    page.wait_for_function("window.homebot?.state.online && window.homebot.state.map.ready",
+                           timeout=STREAM_TIMEOUT_MS)
+    page.fill("#session-name", "flat")
+    page.click("#session-form button[type=submit]")
+    page.wait_for_selector("#sessions li[data-name=flat]")
+    assert (server.data / "sessions" / "flat.session.npz").stat().st_size > 0
+    page.click("#sessions li[data-name=flat] button.primary")  # Continue
+    page.wait_for_function("window.homebot.state.status?.events?.some(e => e.event === 'session_resumed')",
+                           timeout=STREAM_TIMEOUT_MS)
+    page.wait_for_function("document.getElementById('st-loc').textContent === 'localized'",
+                           timeout=STREAM_TIMEOUT_MS)
+    status = server.api("GET", "status").json()
+    assert status["mode"] == "mapping" and not status["worker"]["relocalizing"]
+    true = status["true_pose"]
+    assert math.hypot(status["pose"]["x"] - true[0], status["pose"]["y"] - true[1]) < POSE_BOUND_M
     assert page.js_errors == []
