@@ -221,7 +221,7 @@ class MonteCarloLocalizer:
         cfg = self.config
         points = tracking_points(scan, cfg.laser_pose, cfg.tracking.beams, cfg.tracking.max_range)
         if self.tracker.tracking:
-            self.tracker.correct(points)
+            self.tracker.correct(points, cfg.laser_pose[:2])
             if not self.tracker.tracking:  # lost (or carried off): the cloud's pose, or start over
                 if not (self._converged() and self.tracker.try_start(self.main_cluster().pose, points)):
                     self.global_localization()
@@ -230,7 +230,7 @@ class MonteCarloLocalizer:
             return
         mean = self.main_cluster().pose
         if self.tracker.tracking:
-            if self._disagrees(mean, self.tracker.pose):
+            if not self.tracker.occluded and self._disagrees(mean, self.tracker.pose):
                 self.tracker.try_switch(mean, points)
             self._badly_converged = 0
         elif self.tracker.try_start(mean, points):
@@ -313,14 +313,14 @@ class MonteCarloLocalizer:
 
     def estimate(self) -> Estimate:
         """The tracked pose while there is a track, else the main cluster's mean; ``localized``
-        while the track is confirmed and the last scan fitted."""
+        while the track is confirmed and the last scan fitted (not missed, not occluded)."""
         if self._estimate is None:
             c = self.main_cluster()
             tracking = self.tracker.tracking
             pose = self.tracker.pose.copy() if tracking else c.pose
             self._estimate = Estimate(pose=pose, covariance=c.covariance, particles=self.particles,
                                       weights=self.weights, localized=tracking and self.tracker.confirmed
-                                      and self.tracker.misses == 0)
+                                      and self.tracker.misses == 0 and not self.tracker.occluded)
         return self._estimate
 
     def occupancy_map(self) -> OccupancyGrid:
