@@ -25,7 +25,8 @@ does the former on every scan:
 
 The tracker is (re)started from a known start, or from the particle filter's main
 cluster once it has converged and matches well there. A track started from the
-filter is *confirmed* only after ``confirm_travel`` metres of odometry during
+filter is *confirmed* only after ``confirm_travel`` metres of odometry and
+``confirm_matches`` accepted matches during
 which its usual fit stayed at least ``start_fit`` (it is dropped as soon as it
 does not): in a look-alike corridor the filter can converge on the wrong one
 while the robot barely moves.
@@ -59,6 +60,8 @@ class TrackingConfig:
     switch_xy: float = 1.0
     #: Odometry travel (m) a track started by the filter must survive before it is confirmed.
     confirm_travel: float = 3.0
+    #: ... and this many accepted matches (a log with a scan per metre needs more than 3 of them).
+    confirm_matches: int = 10
     #: Rejected scans in a row after which the track is lost.
     patience: int = 5
     #: Occlusion: the least fit, the largest fraction of beams seen through a wall, and the odometry
@@ -119,9 +122,13 @@ class PoseTracker:
         self.usual_fit: float | None = None  # running mean of the accepted fits
         self.misses = 0
         self.occluded = False
+        #: This scan's correction by the fallback search or a switch (world x, y, theta): a jump,
+        #: which the published pose spreads over the next scans.
+        self.jump = np.zeros(3)
         self._odom: np.ndarray | None = None
         self._moved = np.zeros(2)  # odometry distance and turn since the last accepted match
         self._unconfirmed_travel = 0.0  # odometry travel since an unconfirmed start
+        self._unconfirmed_matches = 0  # and accepted matches
         self.confirmed = False
 
     @property
@@ -130,13 +137,15 @@ class PoseTracker:
 
     def predict(self, odom: np.ndarray) -> None:
         """Move the tracked pose by the odometry since the previous call."""
+        self.jump = np.zeros(3)
         if self.pose is not None and self._odom is not None:
             step = relative(self._odom, odom)
             self.pose = compose(self.pose, step)
             self._moved += (np.hypot(step[0], step[1]), abs(step[2]))
             if not self.confirmed:
                 self._unconfirmed_travel += float(np.hypot(step[0], step[1]))
-                self.confirmed = self._unconfirmed_travel >= self.config.confirm_travel
+                self.confirmed = (self._unconfirmed_travel >= self.config.confirm_travel
+                                  and self._unconfirmed_matches >= self.config.confirm_matches)
         self._odom = np.array(odom, dtype=np.float64)
 
     def correct(self, points: np.ndarray, laser_xy=(0.0, 0.0)) -> MatchResult | None:
@@ -155,6 +164,7 @@ class PoseTracker:
             wide = self.matcher.search(self.pose, points, cfg.search_xy, cfg.search_theta, cfg.search_step,
                                        prior, cfg.search_cost)
             if self._penalized(wide) >= self._penalized(result) + cfg.search_gain:
+                self._jumped(result.pose, wide.pose)
                 result = wide
         self.fit = result.fit
         self.occluded = False
@@ -162,6 +172,7 @@ class PoseTracker:
             self.pose, self.misses = result.pose, 0
             self.usual_fit = usual + cfg.usual_rate * (result.fit - usual)
             self._moved[:] = 0.0
+            self._unconfirmed_matches += 1
         elif self._occluded(result.fit, points, laser_xy):
             self.occluded = True
         else:
@@ -196,7 +207,17 @@ class PoseTracker:
         cfg = self.config
         needed = max(min(cfg.start_fit, self.fit), cfg.min_fit, cfg.keep_ratio * (self.usual_fit or 0.0))
         near = float(np.hypot(*(np.asarray(pose[:2]) - self.pose[:2]))) <= cfg.switch_xy
-        return self._start_if(pose, points, needed, self.confirmed and near)
+        before = self.pose.copy()
+        if not self._start_if(pose, points, needed, self.confirmed and near):
+            return False
+        self._jumped(before, self.pose)
+        return True
+
+    def _jumped(self, before: np.ndarray, after: np.ndarray) -> None:
+        """Add a correction that was no local match (the fallback search, the filter's pose) to ``jump``."""
+        d = after - before
+        d[2] = (d[2] + np.pi) % (2 * np.pi) - np.pi
+        self.jump = self.jump + d
 
     def _start_if(self, pose, points: np.ndarray, min_fit: float, confirmed: bool) -> bool:
         result = self.matcher.match(pose, points)
@@ -207,6 +228,7 @@ class PoseTracker:
         self.occluded = False
         self._moved[:] = 0.0
         self._unconfirmed_travel = 0.0
+        self._unconfirmed_matches = 0
         self.confirmed = confirmed
         return True
 
