@@ -11,8 +11,8 @@ pose in free space with probability ``max(0, 1 - w_fast / w_slow)``.
 The published pose is the tracked one (:mod:`slam_core.localization.tracking`:
 odometry, then scan-to-map matching on every scan) while there is a track, else
 the weighted mean of the heaviest particle cluster. Along a confirmed track it moves
-smoothly: a correction of the track that is no local match (the fallback search's, the
-filter's) moves the published position by at most ``smooth_xy`` per scan
+smoothly: per scan its position moves at most ``smooth_xy`` farther than the odometry
+moved (a correction is spread over the next scans)
 (a jump only when a new track starts, which is not yet *localized*). The filter runs on its own
 and checks the track: a track starts from a known pose or from the converged
 main cluster, and moves there when the converged cloud disagrees with it and
@@ -105,8 +105,9 @@ class MclConfig:
     global_seeded: float = 0.5
     global_beams: int = 60
     global_range: float = 15.0
-    #: Largest correction (m) of the published position per scan along a confirmed track (the
-    #: heading is corrected at once: holding it back would carry the position off).
+    #: Along a confirmed track the published position moves per scan at most this much (m) more
+    #: than the odometry did (the heading is corrected at once: holding it back would carry the
+    #: position off).
     smooth_xy: float = 0.2
 
     def __post_init__(self):
@@ -155,8 +156,8 @@ class MonteCarloLocalizer:
             self.sensor = LikelihoodFieldModel(self.map, self.config.likelihood_field)
         self._last_odom: np.ndarray | None = None
         self._estimate: Estimate | None = None
-        self._offset = np.zeros(2)  # published position less the tracked one
-        self._published_confirmed = False  # whether the published pose came from a confirmed track
+        self._published: np.ndarray | None = None  # the position published along a confirmed track
+        self._published_odom = np.zeros(3)  # and the odometry then
         self._track_confirmed = False  # whether the track was confirmed after the previous scan
         self._global_search: GlobalSearch | None = None  # built at the first global start
         self._seed_pending = False  # a global start waits for a scan to seed the particles
@@ -219,22 +220,22 @@ class MonteCarloLocalizer:
         self.tracker.predict(odom)
         self.filter_updated = self._filter_step(odom, scan)
         self._track(scan, self.filter_updated)
-        self._publish()
+        self._publish(odom)
         self._estimate = None
         return self.filter_updated or self.tracker.tracking
 
-    def _publish(self) -> None:
-        """Keep the published position off the confirmed track by the jumps the track made (the
-        fallback search's and the filter's corrections), shrinking the offset by ``smooth_xy`` per
-        scan; a new track is published as it is."""
+    def _publish(self, odom: np.ndarray) -> None:
+        """Move the published position towards the confirmed track, at most ``smooth_xy`` farther
+        than the odometry moved since the previous scan; a new track is published as it is."""
         t = self.tracker
-        if not (t.tracking and t.confirmed and self._published_confirmed):
-            self._offset = np.zeros(2)
+        if not (t.tracking and t.confirmed and self._published is not None):
+            self._published = t.pose[:2].copy() if t.tracking and t.confirmed else None
         else:
-            off = self._offset - t.jump[:2]
-            dist = float(np.hypot(off[0], off[1]))
-            self._offset = off * (max(0.0, dist - self.config.smooth_xy) / dist if dist > 0 else 0.0)
-        self._published_confirmed = t.tracking and t.confirmed
+            step = t.pose[:2] - self._published
+            dist = float(np.hypot(step[0], step[1]))
+            limit = float(np.hypot(*(odom[:2] - self._published_odom[:2]))) + self.config.smooth_xy
+            self._published = self._published + step * min(1.0, limit / dist if dist > 0 else 1.0)
+        self._published_odom = odom
 
     def _filter_step(self, odom: np.ndarray, scan: Scan) -> bool:
         cfg = self.config
@@ -426,12 +427,10 @@ class MonteCarloLocalizer:
         if self._estimate is None:
             c = self.main_cluster()
             t = self.tracker
-            if t.tracking:
-                pose = t.pose.copy()
-                pose[:2] += self._offset
-            else:
-                pose = c.pose
-            caught_up = np.hypot(self._offset[0], self._offset[1]) <= self.config.disagree_xy
+            pose = t.pose.copy() if t.tracking else c.pose
+            if t.tracking and self._published is not None:
+                pose[:2] = self._published
+            caught_up = not t.tracking or np.hypot(*(pose[:2] - t.pose[:2])) <= self.config.disagree_xy
             self._estimate = Estimate(pose=pose, covariance=c.covariance, particles=self.particles,
                                       weights=self.weights, localized=t.tracking and t.confirmed
                                       and t.misses == 0 and not t.occluded and bool(caught_up))

@@ -122,9 +122,6 @@ class PoseTracker:
         self.usual_fit: float | None = None  # running mean of the accepted fits
         self.misses = 0
         self.occluded = False
-        #: This scan's correction by the fallback search or a switch (world x, y, theta): a jump,
-        #: which the published pose spreads over the next scans.
-        self.jump = np.zeros(3)
         self._odom: np.ndarray | None = None
         self._moved = np.zeros(2)  # odometry distance and turn since the last accepted match
         self._unconfirmed_travel = 0.0  # odometry travel since an unconfirmed start
@@ -137,7 +134,6 @@ class PoseTracker:
 
     def predict(self, odom: np.ndarray) -> None:
         """Move the tracked pose by the odometry since the previous call."""
-        self.jump = np.zeros(3)
         if self.pose is not None and self._odom is not None:
             step = relative(self._odom, odom)
             self.pose = compose(self.pose, step)
@@ -164,7 +160,6 @@ class PoseTracker:
             wide = self.matcher.search(self.pose, points, cfg.search_xy, cfg.search_theta, cfg.search_step,
                                        prior, cfg.search_cost)
             if self._penalized(wide) >= self._penalized(result) + cfg.search_gain:
-                self._jumped(result.pose, wide.pose)
                 result = wide
         self.fit = result.fit
         self.occluded = False
@@ -207,17 +202,7 @@ class PoseTracker:
         cfg = self.config
         needed = max(min(cfg.start_fit, self.fit), cfg.min_fit, cfg.keep_ratio * (self.usual_fit or 0.0))
         near = float(np.hypot(*(np.asarray(pose[:2]) - self.pose[:2]))) <= cfg.switch_xy
-        before = self.pose.copy()
-        if not self._start_if(pose, points, needed, self.confirmed and near):
-            return False
-        self._jumped(before, self.pose)
-        return True
-
-    def _jumped(self, before: np.ndarray, after: np.ndarray) -> None:
-        """Add a correction that was no local match (the fallback search, the filter's pose) to ``jump``."""
-        d = after - before
-        d[2] = (d[2] + np.pi) % (2 * np.pi) - np.pi
-        self.jump = self.jump + d
+        return self._start_if(pose, points, needed, self.confirmed and near)
 
     def _start_if(self, pose, points: np.ndarray, min_fit: float, confirmed: bool) -> bool:
         result = self.matcher.match(pose, points)
