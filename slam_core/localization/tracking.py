@@ -23,8 +23,9 @@ does the former on every scan:
    up to ``occluded_travel`` metres of odometry without counting a miss (but says it is
    *occluded*: the pose is odometry's, not the map's).
 
-The tracker is (re)started from a known start, or from the particle filter's main
-cluster once it has converged and matches well there. A track started from the
+The tracker is (re)started from a known start, from the particle filter's main
+cluster once it has converged and matches well there, or from the best of the
+filter's heaviest particles refined by the matcher. A track started from the
 filter is *confirmed* only after ``confirm_travel`` metres of odometry and
 ``confirm_matches`` accepted matches during
 which its usual fit stayed at least ``start_fit`` (it is dropped as soon as it
