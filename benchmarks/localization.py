@@ -192,7 +192,8 @@ def _table_row(name: str, start: str, log: Path, grid, reference: Trajectory, re
             f"| {wall:.0f} |")
 
 
-def issue_table(slam_maps: Path | None, stress: Path | None, seeds: list[int], logs: set[str] | None) -> None:
+def issue_table(slam_maps: Path | None, stress: Path | None, seeds: list[int], logs: set[str] | None,
+                starts: set[str]) -> None:
     print("| log | start | seed | within 0.10 m / 2 deg after 10 m (%) | max jump (m) | relation error (m) "
           "| reference's (m) | localized (%) | localized > 0.5 m off (%) | travel to right pose (m) "
           "| wall (s) |")
@@ -207,8 +208,9 @@ def issue_table(slam_maps: Path | None, stress: Path | None, seeds: list[int], l
             cases.append((folder.name, folder / f"{folder.name}.clf.bz2", *_reference_for_stress(folder),
                           load_relations(folder / f"{folder.name}.relations")))
     for name, log, grid, reference, relations in cases:
-        print(_table_row(name, "known", log, grid, reference, relations, seeds[0]), flush=True)
-        for seed in seeds:
+        if "known" in starts:
+            print(_table_row(name, "known", log, grid, reference, relations, seeds[0]), flush=True)
+        for seed in seeds if "global" in starts else []:
             print(_table_row(name, "global", log, grid, reference, relations, seed), flush=True)
 
 
@@ -230,11 +232,12 @@ def main() -> None:
     parser.add_argument("--stress", type=Path, help="folder of the stress logs (one folder per log)")
     parser.add_argument("--seeds", default="0,1", help="seeds of the global runs in the table")
     parser.add_argument("--logs", help="only these logs in the table (comma-separated names)")
+    parser.add_argument("--starts", default="known,global", help="which starts in the table (%(default)s)")
     args = parser.parse_args()
     t = time.perf_counter()
     if args.table:
         issue_table(args.slam_maps, args.stress, [int(v) for v in args.seeds.split(",")],
-                    None if args.logs is None else set(args.logs.split(",")))
+                    None if args.logs is None else set(args.logs.split(",")), set(args.starts.split(",")))
         print(f"total {time.perf_counter() - t:.1f} s")
         return
     if not args.skip_updates:

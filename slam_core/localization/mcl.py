@@ -10,7 +10,10 @@ pose in free space with probability ``max(0, 1 - w_fast / w_slow)``.
 
 The published pose is the tracked one (:mod:`slam_core.localization.tracking`:
 odometry, then scan-to-map matching on every scan) while there is a track, else
-the weighted mean of the heaviest particle cluster. The filter runs on its own
+the weighted mean of the heaviest particle cluster. Along a confirmed track it moves
+smoothly: per scan its position moves at most ``smooth_xy`` farther than the odometry
+moved (a correction is spread over the next scans)
+(a jump only when a new track starts, which is not yet *localized*). The filter runs on its own
 and checks the track: a track starts from a known pose or from the converged
 main cluster, and moves there when the converged cloud disagrees with it and
 the scan fits there at least as well.
@@ -29,6 +32,7 @@ from slam_core.geometry import relative, wrap_angle
 from slam_core.localization.beam_model import BeamModel, BeamModelParams
 from slam_core.localization.beams import select_beams
 from slam_core.localization.clustering import Cluster, main_cluster
+from slam_core.localization.global_search import GlobalSearch
 from slam_core.localization.kld import adaptive_count, pose_bins
 from slam_core.localization.known_map import KnownMap
 from slam_core.localization.likelihood_field import LikelihoodFieldModel, LikelihoodFieldParams
@@ -89,6 +93,22 @@ class MclConfig:
     disagree_theta: float = np.radians(6.0)
     #: Filter updates a converged cloud may sit where the scan fits badly before a global restart.
     relocalize_after: int = 10
+    #: Without a track: how many distinct heavy particles (among the ``hypothesis_pool`` heaviest)
+    #: the matcher refines, and by how much the best fit must beat the others to start a track.
+    hypotheses: int = 20
+    hypothesis_pool: int = 2000
+    hypothesis_margin: float = 0.05
+    #: A global start seeds ``global_seeded`` of the particles around the ``global_candidates`` best
+    #: poses of the first scan over the whole map (:mod:`slam_core.localization.global_search`,
+    #: with ``global_beams`` beams up to ``global_range`` m); the rest stay uniform.
+    global_candidates: int = 100
+    global_seeded: float = 0.5
+    global_beams: int = 60
+    global_range: float = 15.0
+    #: Along a confirmed track the published position moves per scan at most this much (m) more
+    #: than the odometry did (the heading is corrected at once: holding it back would carry the
+    #: position off).
+    smooth_xy: float = 0.2
 
     def __post_init__(self):
         if not 1 <= self.min_particles <= self.max_particles:
@@ -136,6 +156,11 @@ class MonteCarloLocalizer:
             self.sensor = LikelihoodFieldModel(self.map, self.config.likelihood_field)
         self._last_odom: np.ndarray | None = None
         self._estimate: Estimate | None = None
+        self._published: np.ndarray | None = None  # the position published along a confirmed track
+        self._published_odom = np.zeros(3)  # and the odometry then
+        self._track_confirmed = False  # whether the track was confirmed after the previous scan
+        self._global_search: GlobalSearch | None = None  # built at the first global start
+        self._seed_pending = False  # a global start waits for a scan to seed the particles
         self.tracker = PoseTracker(self.map, self.config.tracking)
         self._badly_converged = 0
         self.filter_updated = False
@@ -147,9 +172,11 @@ class MonteCarloLocalizer:
 
     # -- initialization -------------------------------------------------------------------
     def global_localization(self) -> None:
-        """Forget the pose: ``max_particles`` uniform over free space, any heading."""
+        """Forget the pose: ``max_particles`` uniform over free space, any heading (part of them
+        moved where the next scan fits best, see ``global_seeded``)."""
         self._reset(self.map.sample_free_poses(self.config.max_particles, self.rng))
         self.tracker.lose()
+        self._seed_pending = True
 
     def set_pose(self, pose, covariance=None) -> None:
         """"I am here": particles drawn from a Gaussian around ``pose`` (x, y, theta)."""
@@ -166,6 +193,7 @@ class MonteCarloLocalizer:
         particles[:, 2] = wrap_angle(particles[:, 2])
         self._reset(particles)
         self.tracker.start(pose)
+        self._seed_pending = False
 
     def _reset(self, particles: np.ndarray) -> None:
         self.particles = np.ascontiguousarray(particles, dtype=np.float64)
@@ -192,8 +220,22 @@ class MonteCarloLocalizer:
         self.tracker.predict(odom)
         self.filter_updated = self._filter_step(odom, scan)
         self._track(scan, self.filter_updated)
+        self._publish(odom)
         self._estimate = None
         return self.filter_updated or self.tracker.tracking
+
+    def _publish(self, odom: np.ndarray) -> None:
+        """Move the published position towards the confirmed track, at most ``smooth_xy`` farther
+        than the odometry moved since the previous scan; a new track is published as it is."""
+        t = self.tracker
+        if not (t.tracking and t.confirmed and self._published is not None):
+            self._published = t.pose[:2].copy() if t.tracking and t.confirmed else None
+        else:
+            step = t.pose[:2] - self._published
+            dist = float(np.hypot(step[0], step[1]))
+            limit = float(np.hypot(*(odom[:2] - self._published_odom[:2]))) + self.config.smooth_xy
+            self._published = self._published + step * min(1.0, limit / dist if dist > 0 else 1.0)
+        self._published_odom = odom
 
     def _filter_step(self, odom: np.ndarray, scan: Scan) -> bool:
         cfg = self.config
@@ -203,9 +245,30 @@ class MonteCarloLocalizer:
                 return False
             self.particles = cfg.motion.sample(self.particles, self._last_odom, odom, self.rng)
         self._last_odom = odom
+        if self._seed_pending:
+            self._seed(scan)
         self._correct(scan)
         self.updates_since_reset += 1
         return True
+
+    def _seed(self, scan: Scan) -> None:
+        """Move ``global_seeded`` of the particles close to the poses where the scan fits the whole
+        map best (within a lattice stride and half a heading step)."""
+        cfg = self.config
+        self._seed_pending = False
+        if self._global_search is None:
+            self._global_search = GlobalSearch(self.map)
+        points = tracking_points(scan, cfg.laser_pose, cfg.global_beams, cfg.global_range)
+        poses, _ = self._global_search.best(points, cfg.global_candidates)
+        n = int(cfg.global_seeded * len(self.particles))
+        if len(poses) == 0 or n == 0:
+            return
+        pick = poses[self.rng.integers(0, len(poses), n)]
+        spread = (self._global_search.stride / 2, self._global_search.stride / 2,
+                  self._global_search.heading_step / 2)
+        seeded = pick + self.rng.uniform(-1.0, 1.0, (n, 3)) * spread
+        seeded[:, 2] = wrap_angle(seeded[:, 2])
+        self.particles[:n] = seeded
 
     def _track(self, scan: Scan, filter_updated: bool) -> None:
         """Match the tracked pose, and settle it with the filter after each filter update.
@@ -213,32 +276,78 @@ class MonteCarloLocalizer:
         A converged cloud that the track disagrees with wins when the scan fits the map
         there at least as well as at the track (the filter weighs many scans, the track
         one), or well (``start_fit``). Without a track, a converged cloud starts one
-        where the scan fits well; a cloud that stays converged where it fits badly for
-        ``relocalize_after`` updates is wrong, and the filter starts over globally, as
-        it does when the track is lost (a kidnapping) where the cloud does not fit well
-        either.
+        where the scan fits well; else the filter's best distinct hypotheses are refined
+        by the matcher and one that fits well, clearly better than any other, starts it.
+        A cloud that stays converged where it fits badly for ``relocalize_after`` updates
+        is wrong, and the filter starts over globally, as it does when a confirmed track
+        is lost (a kidnapping) where the cloud does not fit well either. When a track is
+        confirmed, the cloud is drawn again around it.
         """
         cfg = self.config
+        t = self.tracker
         points = tracking_points(scan, cfg.laser_pose, cfg.tracking.beams, cfg.tracking.max_range)
-        if self.tracker.tracking:
-            self.tracker.correct(points)
-            if not self.tracker.tracking:  # lost (or carried off): the cloud's pose, or start over
-                if not (self._converged() and self.tracker.try_start(self.main_cluster().pose, points)):
+        if t.tracking:
+            was_confirmed = t.confirmed
+            t.correct(points, cfg.laser_pose[:2])
+            if not t.tracking:  # lost (or carried off): the cloud's pose, or start over
+                found = self._converged() and t.try_start(self.main_cluster().pose, points)
+                if not found and was_confirmed:
                     self.global_localization()
                 return
-        if not filter_updated or not self._converged():
+            if t.confirmed and not self._track_confirmed:
+                self._surround(t.pose)
+            self._track_confirmed = t.confirmed
+        if not filter_updated:
             return
-        mean = self.main_cluster().pose
-        if self.tracker.tracking:
-            if self._disagrees(mean, self.tracker.pose):
-                self.tracker.try_switch(mean, points)
+        converged = self._converged()
+        if t.tracking:
+            if converged and not t.occluded and self._disagrees(self.main_cluster().pose, t.pose):
+                t.try_switch(self.main_cluster().pose, points)
             self._badly_converged = 0
-        elif self.tracker.try_start(mean, points):
+        elif ((converged and t.try_start(self.main_cluster().pose, points))
+              or self._start_from_hypotheses(points)):
             self._badly_converged = 0
-        else:
+        elif converged:
             self._badly_converged += 1
             if self._badly_converged >= cfg.relocalize_after:
                 self.global_localization()
+
+    def _start_from_hypotheses(self, points: np.ndarray) -> bool:
+        """Refine the heaviest distinct particles by matching; start the track at the best if it fits
+        well (``start_fit``) and ``hypothesis_margin`` better than any other more than
+        ``cluster_xy`` away."""
+        cfg = self.config
+        matches = [self.tracker.matcher.match(p, points) for p in self._hypotheses()]
+        if not matches:
+            return False
+        matches.sort(key=lambda m: -m.fit)
+        best = matches[0]
+        rivals = [m.fit for m in matches[1:] if np.hypot(*(m.pose[:2] - best.pose[:2])) > cfg.cluster_xy]
+        if rivals and best.fit < rivals[0] + cfg.hypothesis_margin:
+            return False
+        return self.tracker.try_start(best.pose, points)
+
+    def _hypotheses(self) -> list[np.ndarray]:
+        """Up to ``hypotheses`` of the heaviest particles, each ``cluster_xy`` or 30 deg from the others."""
+        cfg = self.config
+        picked: list[np.ndarray] = []
+        for i in np.argsort(-self.weights)[:cfg.hypothesis_pool]:
+            p = self.particles[i]
+            if all(np.hypot(p[0] - q[0], p[1] - q[1]) > cfg.cluster_xy
+                   or abs(wrap_angle(p[2] - q[2])) > np.radians(30.0) for q in picked):
+                picked.append(p)
+                if len(picked) == cfg.hypotheses:
+                    break
+        return picked
+
+    def _surround(self, pose: np.ndarray) -> None:
+        """Draw the cloud again around the (confirmed) track, keeping the track."""
+        cov = np.diag([self.config.localized_xy_std, self.config.localized_xy_std,
+                       self.config.localized_theta_std]) ** 2
+        particles = self.rng.multivariate_normal(pose, cov, size=self.config.min_particles, method="eigh")
+        particles[:, 2] = wrap_angle(particles[:, 2])
+        self._reset(particles)
+        self.updates_since_reset = self.config.localized_min_updates
 
     def _converged(self) -> bool:
         """The cloud has one tight dominant cluster and is not busy injecting random guesses."""
@@ -312,15 +421,19 @@ class MonteCarloLocalizer:
         return main_cluster(self.particles, self.weights, cfg.cluster_xy, cfg.cluster_theta_bins)
 
     def estimate(self) -> Estimate:
-        """The tracked pose while there is a track, else the main cluster's mean; ``localized``
-        while the track is confirmed and the last scan fitted."""
+        """The published pose while there is a track (see the module doc), else the main cluster's
+        mean; ``localized`` while the track is confirmed, the last scan fitted (not missed, not
+        occluded) and the published pose is within ``disagree_xy`` of the track."""
         if self._estimate is None:
             c = self.main_cluster()
-            tracking = self.tracker.tracking
-            pose = self.tracker.pose.copy() if tracking else c.pose
+            t = self.tracker
+            pose = t.pose.copy() if t.tracking else c.pose
+            if t.tracking and self._published is not None:
+                pose[:2] = self._published
+            caught_up = not t.tracking or np.hypot(*(pose[:2] - t.pose[:2])) <= self.config.disagree_xy
             self._estimate = Estimate(pose=pose, covariance=c.covariance, particles=self.particles,
-                                      weights=self.weights, localized=tracking and self.tracker.confirmed
-                                      and self.tracker.misses == 0)
+                                      weights=self.weights, localized=t.tracking and t.confirmed
+                                      and t.misses == 0 and not t.occluded and bool(caught_up))
         return self._estimate
 
     def occupancy_map(self) -> OccupancyGrid:

@@ -28,6 +28,11 @@ decide whether the map explains the scan.
 :func:`search` is the fallback when the start is too far off for Gauss-Newton
 (odometry that stalled, then caught up): an exhaustive correlative search
 (Olson 2009) over a window of poses, scoring the beams within ``FIT_DISTANCE`` of a wall.
+
+:meth:`ScanToMapMatcher.seen_through` counts the beams that contradict the map at a pose:
+their ray passes an occupied cell well before the endpoint (the map's wall is not there). A beam
+that ends short of the map's wall is no contradiction: a person or a moved chair is in front of
+it (the beam model's ``z_short``), which is how a crowd around the robot differs from a wrong pose.
 """
 
 from __future__ import annotations
@@ -37,6 +42,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from slam_core.jit import njit
+from slam_core.localization.beam_model import cast_ray
 from slam_core.localization.known_map import KnownMap
 
 #: Trimming distance (m) of the first and the last iteration.
@@ -57,6 +63,10 @@ EFFECTIVE_BEAMS = 20
 DEFAULT_PRIOR = ((BEAM_SIGMA / 0.1) ** 2, (BEAM_SIGMA / 0.05) ** 2)
 #: The correlative search scores a beam ``max(0, 1 - D / SEARCH_REACH)``.
 SEARCH_REACH = 0.3
+#: A ray that meets a wall this far (m), plus this much per metre of range, before its endpoint
+#: sees through the map.
+THROUGH_DISTANCE = 0.2
+THROUGH_PER_METRE = 0.03
 #: Largest step of one iteration (m, rad).
 MAX_STEP_XY = 0.25
 MAX_STEP_THETA = 0.2
@@ -156,11 +166,14 @@ def _match(distance, origin_x, origin_y, res, x, y, th, bx, by, iterations, cuto
 
 
 @njit
-def _search(score, origin_x, origin_y, res, x, y, th, bx, by, half_cells, half_th, step_th):
-    """Best ``(x, y, theta)`` on the grid of cell offsets and heading steps around the start."""
+def _search(score, origin_x, origin_y, res, x, y, th, bx, by, half_cells, half_th, step_th, cost):
+    """Best ``(x, y, theta)`` on the grid of cell offsets and heading steps around the start: the
+    mean beam score less ``cost`` times the squared offset in units of the window's half-widths."""
     ny, nx = score.shape
     n_th = int(half_th / step_th)
-    best = -1.0
+    inv_cells = 1.0 / max(half_cells, 1) ** 2
+    inv_th = 1.0 / max(n_th, 1) ** 2
+    best = -np.inf
     bx_, by_, bth = x, y, th
     cells_x = np.empty(bx.shape[0], np.int64)
     cells_y = np.empty(bx.shape[0], np.int64)
@@ -179,12 +192,35 @@ def _search(score, origin_x, origin_y, res, x, y, th, bx, by, half_cells, half_t
                     iy = cells_y[j] + dy
                     if ix >= 0 and iy >= 0 and ix < nx and iy < ny:
                         total += score[iy, ix]
+                total = total / bx.shape[0] - cost * ((dx * dx + dy * dy) * inv_cells + k * k * inv_th)
                 if total > best:
                     best = total
                     bx_ = x + dx * res
                     by_ = y + dy * res
                     bth = t
     return bx_, by_, bth
+
+
+@njit
+def _seen_through(distance, origin_x, origin_y, res, x, y, th, lx, ly, bx, by):
+    """Beams from the laser at ``(lx, ly)`` (robot frame) whose ray meets a wall before its endpoint."""
+    c = np.cos(th)
+    s = np.sin(th)
+    sx = x + c * lx - s * ly
+    sy = y + s * lx + c * ly
+    count = 0
+    for j in range(bx.shape[0]):
+        dx = bx[j] - lx
+        dy = by[j] - ly
+        r = np.hypot(dx, dy)
+        reach = r - THROUGH_DISTANCE - THROUGH_PER_METRE * r
+        if reach <= 0.0:
+            continue
+        wx = (c * dx - s * dy) / r
+        wy = (s * dx + c * dy) / r
+        if cast_ray(sx, sy, wx, wy, distance, origin_x, origin_y, res, reach) < reach:
+            count += 1
+    return count
 
 
 def prior_weights(sigma_xy: float, sigma_theta: float) -> tuple[float, float]:
@@ -221,8 +257,11 @@ class ScanToMapMatcher:
         return MatchResult(refined, close / len(points), len(points))
 
     def search(self, pose, points: np.ndarray, half_xy: float, half_theta: float,
-               step_theta: float, prior=DEFAULT_PRIOR) -> MatchResult:
-        """Best pose within ``+-half_xy`` (m), ``+-half_theta`` (rad) of ``pose``, then :meth:`match`."""
+               step_theta: float, prior=DEFAULT_PRIOR, cost: float = 0.0) -> MatchResult:
+        """Best pose within ``+-half_xy`` (m), ``+-half_theta`` (rad) of ``pose``, then :meth:`match`.
+
+        Candidates pay ``cost`` (a fraction of the beams' mean score) times their squared offset
+        from ``pose`` in units of the half-widths: of two poses that fit alike, the nearer wins."""
         pose = np.asarray(pose, dtype=np.float64).reshape(-1)
         points = np.asarray(points, dtype=np.float64).reshape(-1, 2)
         if len(points) == 0:
@@ -231,5 +270,18 @@ class ScanToMapMatcher:
         half_cells = max(round(half_xy / m.resolution), 0)
         x, y, th = _search(self._score, m.origin[0], m.origin[1], m.resolution, pose[0], pose[1], pose[2],
                            np.ascontiguousarray(points[:, 0]), np.ascontiguousarray(points[:, 1]),
-                           half_cells, half_theta, step_theta)
+                           half_cells, half_theta, step_theta, cost)
         return self.match((x, y, th), points, prior)
+
+    def seen_through(self, pose, points: np.ndarray, laser_xy=(0.0, 0.0)) -> float:
+        """Fraction of the endpoints ``(n, 2)`` (robot frame, laser at ``laser_xy``) whose ray passes
+        through a wall of the map at ``pose``."""
+        pose = np.asarray(pose, dtype=np.float64).reshape(-1)
+        points = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+        if len(points) == 0:
+            return 0.0
+        m = self.map
+        count = _seen_through(self._distance, m.origin[0], m.origin[1], m.resolution, pose[0], pose[1],
+                              pose[2], float(laser_xy[0]), float(laser_xy[1]),
+                              np.ascontiguousarray(points[:, 0]), np.ascontiguousarray(points[:, 1]))
+        return count / len(points)

@@ -15,11 +15,19 @@ does the former on every scan:
    ``search_on_drop``, a correlative search around the prediction (``search_xy``,
    ``search_theta``: odometry that stalled, then caught up) gets a chance; a scan
    that neither explains keeps the predicted pose, and after ``patience`` of them
-   in a row the track is *lost* and the particle filter decides again.
+   in a row the track is *lost* and the particle filter decides again;
+4. *occlusion*: a scan the map explains only in part (``occluded_fit``) whose other
+   beams end short of the map's walls, not beyond them (at most ``max_through`` see
+   through a wall, see :meth:`ScanToMapMatcher.seen_through`), is people or furniture in
+   front of the robot, not a wrong pose: a confirmed track keeps its predicted pose for
+   up to ``occluded_travel`` metres of odometry without counting a miss (but says it is
+   *occluded*: the pose is odometry's, not the map's).
 
-The tracker is (re)started from a known start, or from the particle filter's main
-cluster once it has converged and matches well there. A track started from the
-filter is *confirmed* only after ``confirm_travel`` metres of odometry during
+The tracker is (re)started from a known start, from the particle filter's main
+cluster once it has converged and matches well there, or from the best of the
+filter's heaviest particles refined by the matcher. A track started from the
+filter is *confirmed* only after ``confirm_travel`` metres of odometry and
+``confirm_matches`` accepted matches during
 which its usual fit stayed at least ``start_fit`` (it is dropped as soon as it
 does not): in a look-alike corridor the filter can converge on the wrong one
 while the robot barely moves.
@@ -49,15 +57,29 @@ class TrackingConfig:
     usual_rate: float = 0.1
     #: ... and for a track to start from a pose the particle filter proposes.
     start_fit: float = 0.8
+    #: A switch of the track to the filter's pose farther than this (m) must confirm itself again.
+    switch_xy: float = 1.0
     #: Odometry travel (m) a track started by the filter must survive before it is confirmed.
     confirm_travel: float = 3.0
+    #: ... and this many accepted matches (a log with a scan per metre needs more than 3 of them).
+    confirm_matches: int = 10
     #: Rejected scans in a row after which the track is lost.
     patience: int = 5
+    #: Occlusion: the least fit, the largest fraction of beams seen through a wall, and the odometry
+    #: travel (m) since the last accepted match for which a confirmed track rides it out.
+    occluded_fit: float = 0.15
+    max_through: float = 0.1
+    occluded_travel: float = 3.0
     #: Beams matched per scan (evenly spaced over the valid ones) and the range cap (m).
     beams: int = 180
     max_range: float = 30.0
     #: The fallback search also runs when the fit drops by this much from the previous scan's.
     search_on_drop: float = 0.2
+    #: ... and replaces the match only when it explains this much more of the scan, after both pay
+    #: ``search_cost`` times their squared offset from the prediction in units of the half-widths
+    #: (a pose farther from the prediction that fits just as well is no better evidence).
+    search_gain: float = 0.05
+    search_cost: float = 0.2
     #: Half-widths (m, rad) and heading step (rad) of the fallback search.
     search_xy: float = 0.3
     search_theta: float = np.radians(90.0)
@@ -100,9 +122,11 @@ class PoseTracker:
         self.fit = 0.0
         self.usual_fit: float | None = None  # running mean of the accepted fits
         self.misses = 0
+        self.occluded = False
         self._odom: np.ndarray | None = None
         self._moved = np.zeros(2)  # odometry distance and turn since the last accepted match
         self._unconfirmed_travel = 0.0  # odometry travel since an unconfirmed start
+        self._unconfirmed_matches = 0  # and accepted matches
         self.confirmed = False
 
     @property
@@ -117,11 +141,13 @@ class PoseTracker:
             self._moved += (np.hypot(step[0], step[1]), abs(step[2]))
             if not self.confirmed:
                 self._unconfirmed_travel += float(np.hypot(step[0], step[1]))
-                self.confirmed = self._unconfirmed_travel >= self.config.confirm_travel
+                self.confirmed = (self._unconfirmed_travel >= self.config.confirm_travel
+                                  and self._unconfirmed_matches >= self.config.confirm_matches)
         self._odom = np.array(odom, dtype=np.float64)
 
-    def correct(self, points: np.ndarray) -> MatchResult | None:
-        """Match the predicted pose against the map; returns the match (None without a track)."""
+    def correct(self, points: np.ndarray, laser_xy=(0.0, 0.0)) -> MatchResult | None:
+        """Match the predicted pose against the map (endpoints in the robot frame, laser at
+        ``laser_xy``); returns the match (None without a track)."""
         if self.pose is None:
             return None
         cfg = self.config
@@ -133,18 +159,36 @@ class PoseTracker:
         needed = max(cfg.min_fit, cfg.keep_ratio * usual)
         if result.fit < max(needed, usual - cfg.search_on_drop):
             wide = self.matcher.search(self.pose, points, cfg.search_xy, cfg.search_theta, cfg.search_step,
-                                       prior)
-            result = wide if wide.fit > result.fit else result
+                                       prior, cfg.search_cost)
+            if self._penalized(wide) >= self._penalized(result) + cfg.search_gain:
+                result = wide
         self.fit = result.fit
+        self.occluded = False
         if result.fit >= needed:
             self.pose, self.misses = result.pose, 0
             self.usual_fit = usual + cfg.usual_rate * (result.fit - usual)
             self._moved[:] = 0.0
+            self._unconfirmed_matches += 1
+        elif self._occluded(result.fit, points, laser_xy):
+            self.occluded = True
         else:
             self.misses += 1
         if self.misses >= cfg.patience or (not self.confirmed and self.usual_fit < cfg.start_fit):
             self.lose()
         return result
+
+    def _penalized(self, result: MatchResult) -> float:
+        """A match's fit less the fallback search's cost of its offset from the prediction."""
+        cfg = self.config
+        off = relative(self.pose, result.pose)
+        return result.fit - cfg.search_cost * ((np.hypot(off[0], off[1]) / cfg.search_xy) ** 2
+                                               + (off[2] / cfg.search_theta) ** 2)
+
+    def _occluded(self, fit: float, points: np.ndarray, laser_xy) -> bool:
+        """Whether a scan that does not fit is occluded at the predicted pose (see the module doc)."""
+        cfg = self.config
+        return (self.confirmed and fit >= cfg.occluded_fit and self._moved[0] <= cfg.occluded_travel
+                and self.matcher.seen_through(self.pose, points, laser_xy) <= cfg.max_through)
 
     def try_start(self, pose, points: np.ndarray) -> bool:
         """Start the track at ``pose`` refined by a match, if the map explains the scan well there
@@ -153,16 +197,24 @@ class PoseTracker:
 
     def try_switch(self, pose, points: np.ndarray) -> bool:
         """Move the track to ``pose`` refined by a match, if the scan fits there well or as well as
-        here (a correction of the track: it stays confirmed if it was)."""
-        return self._start_if(pose, points, min(self.config.start_fit, self.fit), self.confirmed)
+        here, and as well as the track needs (a scan the map explains badly everywhere moves
+        nothing). A correction within ``switch_xy`` keeps the track confirmed if it was; a longer
+        one is a new start that must confirm itself."""
+        cfg = self.config
+        needed = max(min(cfg.start_fit, self.fit), cfg.min_fit, cfg.keep_ratio * (self.usual_fit or 0.0))
+        near = float(np.hypot(*(np.asarray(pose[:2]) - self.pose[:2]))) <= cfg.switch_xy
+        return self._start_if(pose, points, needed, self.confirmed and near)
 
     def _start_if(self, pose, points: np.ndarray, min_fit: float, confirmed: bool) -> bool:
         result = self.matcher.match(pose, points)
         if result.fit < min_fit:
             return False
-        self.pose, self.fit, self.usual_fit, self.misses = result.pose, result.fit, result.fit, 0
+        usual = self.usual_fit if confirmed and self.confirmed and self.usual_fit is not None else result.fit
+        self.pose, self.fit, self.usual_fit, self.misses = result.pose, result.fit, usual, 0
+        self.occluded = False
         self._moved[:] = 0.0
         self._unconfirmed_travel = 0.0
+        self._unconfirmed_matches = 0
         self.confirmed = confirmed
         return True
 
@@ -171,10 +223,12 @@ class PoseTracker:
         self.pose = np.array(pose, dtype=np.float64)
         self.usual_fit = None
         self.misses = 0
+        self.occluded = False
         self._moved[:] = 0.0
         self.confirmed = True
 
     def lose(self) -> None:
         self.pose = None
         self.misses = 0
+        self.occluded = False
         self.confirmed = False
