@@ -102,3 +102,24 @@ def test_grid_round_trip_through_seed():
     np.testing.assert_allclose(a, b)
     assert outside == (0, 0)
     assert maps.to_grid(3).shape[0] % TILE == 0
+
+
+def test_writes_that_change_nothing_copy_no_tile():
+    """Free-space beams over cells already at the lower clamp leave shared tiles shared;
+    a beam that changes a cell (an echo) still copies its tile, and only for that map."""
+    maps = TiledMaps(3, 0.05)
+    settled = OccupancyGrid(0.05, origin=(-8.0, -8.0), shape=(320, 320), model=maps.model,
+                            data=np.full((320, 320), np.float32(maps.model.l_min)))
+    maps.seed_from_grid(settled)
+    shared = maps.tiles_in_use
+    no_return = Scan(np.linspace(-np.pi, np.pi, 180, endpoint=False), np.full(180, 80.0), 0.1, 80.0)
+    poses = np.array([[0.0, 0.0, 0.0], [1.0, 1.0, 0.5], [-2.0, 0.5, 1.0]])
+    maps.integrate(poses, no_return)
+    assert maps.tiles_in_use == shared
+    assert np.all(maps.tables == maps.tables[0])
+    echo = Scan(np.array([0.0]), np.array([2.0]), 0.1, 80.0)
+    maps.integrate(poses, echo)
+    assert maps.tiles_in_use > shared
+    copied = [int(np.sum(maps.tables[i] != maps.tables[(i + 1) % 3])) for i in range(3)]
+    assert 0 < max(copied) <= 2 * 3  # the echo's tile (and a neighbour) per map, nothing else
+    assert maps.to_grid(0).data.max() > maps.model.l_min  # the echo was written

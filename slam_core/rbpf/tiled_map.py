@@ -29,27 +29,43 @@ GROW_MARGIN_TILES = 4
 HIT_X, HIT_Y, HIT_N = 0, 1, 2
 
 
-@njit
-def _mark_touched(tables, origin_x, origin_y, resolution, poses, angles, ranges, range_min,
-                  range_max, usable_range, no_return_range, marks):
-    """Mark, per map, the tiles a scan from that map's pose will write."""
-    tile_size = resolution * TILE
-    buf = np.empty((ray_buffer_size(usable_range, tile_size) + 4, 2), dtype=np.int64)
+@njit(parallel=True)
+def _mark_changed(tables, refs, lo, origin_x, origin_y, resolution, poses, angles, ranges, range_min,
+                  range_max, usable_range, no_return_range, l_free, l_min, marks):
+    """Mark, per map, the shared or missing tiles a scan from that map's pose would change.
+
+    A free-space write to a cell already at ``l_min`` leaves it as it is, so a shared tile
+    that only such writes reach stays shared: far fewer copies where the map is settled.
+    Tiles the map already holds alone are not marked (they need no copy).
+    """
+    inv = 1.0 / resolution
     n_ty, n_tx = tables.shape[1], tables.shape[2]
-    for p in range(poses.shape[0]):
-        gx0 = (poses[p, 0] - origin_x) / tile_size
-        gy0 = (poses[p, 1] - origin_y) / tile_size
+    for p in prange(poses.shape[0]):
+        buf = np.empty((ray_buffer_size(usable_range, resolution), 2), dtype=np.int64)
+        gx0 = (poses[p, 0] - origin_x) * inv
+        gy0 = (poses[p, 1] - origin_y) * inv
         for b in range(angles.shape[0]):
-            use, _hit, ex, ey = beam_endpoint(poses[p, 0], poses[p, 1], poses[p, 2], angles[b],
-                                              ranges[b], range_min, range_max, usable_range,
-                                              no_return_range)
+            use, hit, ex, ey = beam_endpoint(poses[p, 0], poses[p, 1], poses[p, 2], angles[b],
+                                             ranges[b], range_min, range_max, usable_range,
+                                             no_return_range)
             if not use:
                 continue
-            n = trace_ray(gx0, gy0, (ex - origin_x) / tile_size, (ey - origin_y) / tile_size, buf)
+            n = trace_ray(gx0, gy0, (ex - origin_x) * inv, (ey - origin_y) * inv, buf)
             for k in range(n):
-                tx = buf[k, 0]
-                ty = buf[k, 1]
-                if 0 <= tx < n_tx and 0 <= ty < n_ty:
+                ix = buf[k, 0]
+                iy = buf[k, 1]
+                ty = iy >> TILE_BITS
+                tx = ix >> TILE_BITS
+                if ix < 0 or iy < 0 or ty >= n_ty or tx >= n_tx or marks[p, ty, tx]:
+                    continue
+                t = tables[p, ty, tx]
+                if t >= 0 and refs[t] == 1:
+                    continue
+                if t < 0 or (hit and k == n - 1):
+                    marks[p, ty, tx] = True
+                    continue
+                old = lo[t, iy & (TILE - 1), ix & (TILE - 1)]
+                if np.float32(max(old + l_free, l_min)) != old:
                     marks[p, ty, tx] = True
 
 
@@ -208,7 +224,7 @@ class TiledMaps:
             self.origin = self.origin - np.array([left, bottom]) * ts
 
     def integrate(self, poses: np.ndarray, scan) -> None:
-        """Integrate ``scan`` into map ``i`` at ``poses[i]``, copying shared tiles first."""
+        """Integrate ``scan`` into map ``i`` at ``poses[i]``, first copying the shared tiles it changes."""
         poses = np.ascontiguousarray(poses, dtype=np.float64).reshape(self.n_maps, 3)
         m = self.model
         reach = min(m.usable_range, max(m.no_return_range, float(np.max(scan.ranges, initial=0.0))))
@@ -217,7 +233,7 @@ class TiledMaps:
         marks = np.zeros(self.tables.shape, np.bool_)
         args = (self.origin[0], self.origin[1], self.resolution, poses, scan.angles, scan.ranges,
                 scan.range_min, scan.range_max, m.usable_range, m.no_return_range)
-        _mark_touched(self.tables, *args, marks)
+        _mark_changed(self.tables, self.refs, self.lo, *args, m.l_free, m.l_min, marks)
         self._reserve(int(marks.sum()))
         _make_exclusive(self.tables, marks, self.refs, self.free_stack, self.free_top, self.lo, self.hits)
         _integrate(self.tables, self.refs, self.lo, self.hits, *args,
