@@ -11,6 +11,8 @@ from slam_core.scan import Scan
 
 #: Cells added at a time when a scan reaches outside the grid.
 GROW_CHUNK = 64
+#: Rows converted at a time, so that no whole-map float64 temporary is ever made.
+ROW_BLOCK = 256
 
 #: ROS map_server thresholds on the occupancy probability.
 OCCUPIED_THRESH = 0.65
@@ -128,6 +130,11 @@ class OccupancyGrid:
                              m.usable_range, m.no_return_range, m.l_free, m.l_occ, m.l_min, m.l_max)
 
     def _grow_for(self, scan: Scan, pose: np.ndarray) -> None:
+        self.ensure_contains(*self.reach_of(scan, pose))
+
+    def reach_of(self, scan: Scan, pose) -> tuple[float, float, float, float]:
+        """``(xmin, ymin, xmax, ymax)``: what integrating ``scan`` at ``pose`` writes (and the pose)."""
+        pose = np.asarray(pose, dtype=np.float64)
         r = scan.ranges
         usable = (r >= scan.range_min) & (r > 0)
         m = self.model
@@ -136,19 +143,26 @@ class OccupancyGrid:
         a = pose[2] + scan.angles[usable]
         xs = np.append(pose[0] + r * np.cos(a), pose[0])
         ys = np.append(pose[1] + r * np.sin(a), pose[1])
-        self.ensure_contains(xs.min(), ys.min(), xs.max(), ys.max())
+        return xs.min(), ys.min(), xs.max(), ys.max()
 
-    def probability(self) -> np.ndarray:
-        """Occupancy probability of every cell (0.5 where nothing was seen)."""
-        return 1.0 - 1.0 / (1.0 + np.exp(self.data.astype(np.float64)))
+    def probability(self, rows: slice = slice(None)) -> np.ndarray:
+        """Occupancy probability of every cell (0.5 where nothing was seen), or of ``rows``."""
+        return 1.0 - 1.0 / (1.0 + np.exp(self.data[rows].astype(np.float64)))
+
+    def row_blocks(self):
+        """Slices of at most ``ROW_BLOCK`` rows covering the grid: convert a large map a block
+        at a time (its float64 probability is twice the size of the map)."""
+        return [slice(y, y + ROW_BLOCK) for y in range(0, self.shape[0], ROW_BLOCK)]
 
     def trinary(self, occupied_thresh: float = OCCUPIED_THRESH,
                 free_thresh: float = FREE_THRESH) -> np.ndarray:
         """``int8`` view as ROS ``OccupancyGrid`` data: 100 occupied, 0 free, -1 unknown."""
-        p = self.probability()
-        out = np.full(p.shape, -1, np.int8)
-        out[p > occupied_thresh] = 100
-        out[p < free_thresh] = 0
+        out = np.full(self.shape, -1, np.int8)
+        for rows in self.row_blocks():
+            p = self.probability(rows)
+            block = out[rows]
+            block[p > occupied_thresh] = 100
+            block[p < free_thresh] = 0
         return out
 
 

@@ -7,7 +7,15 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from slam_core.occupancy_grid import FREE_THRESH, OCCUPIED_THRESH, OccupancyGrid, SensorModel, logit
+from slam_core.io.render import map_image
+from slam_core.occupancy_grid import (
+    FREE_THRESH,
+    OCCUPIED_THRESH,
+    ROW_BLOCK,
+    OccupancyGrid,
+    SensorModel,
+    logit,
+)
 from slam_core.scan import Scan
 
 
@@ -149,3 +157,14 @@ def test_one_hit_on_an_unknown_cell_is_occupied_and_one_miss_is_not_free():
     g = OccupancyGrid(1.0, shape=(1, 4))
     g.integrate(Scan([0.0], [2.0], 0.1, 80.0), (0.5, 0.5, 0.0))
     assert g.trinary().tolist() == [[-1, -1, 100, -1]]
+
+
+def test_a_large_grid_converts_a_block_of_rows_at_a_time_to_the_same_result():
+    rng = np.random.default_rng(4)
+    g = OccupancyGrid(0.05, shape=(2 * ROW_BLOCK + 7, 40))
+    g.data[:] = rng.normal(0.0, 3.0, g.shape)
+    p = 1.0 - 1.0 / (1.0 + np.exp(g.data.astype(np.float64)))
+    np.testing.assert_array_equal(g.probability(), p)
+    expected = np.where(p > OCCUPIED_THRESH, 100, np.where(p < FREE_THRESH, 0, -1))
+    np.testing.assert_array_equal(g.trinary(), expected)
+    np.testing.assert_array_equal(map_image(g), np.flipud((255.0 * (1.0 - p)).round().astype(np.uint8)))

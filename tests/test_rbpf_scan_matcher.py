@@ -4,9 +4,10 @@ import numpy as np
 import pytest
 
 from slam_core.geometry import relative
+from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.rbpf.config import MatcherParams
 from slam_core.rbpf.scan_matcher import local_line, match, pose_likelihood
-from slam_core.rbpf.tiled_map import HIT_N, HIT_X, HIT_Y, TILE, TiledMaps
+from slam_core.rbpf.tiled_map import TILE, TiledMaps
 from tests.synthetic_room import room_scan
 
 TRUE_POSE = np.array([0.3, 0.2, 0.1])
@@ -71,26 +72,16 @@ def test_beams_into_unknown_space_do_not_match():
 
 
 def _map_with_surface_points(points, resolution=0.05):
-    """A one-tile map whose occupied cells hold exactly the given surface points."""
-    maps = TiledMaps(1, resolution)
-    maps.ensure_contains(0.0, 0.0, 1.0, 1.0)
-    maps._reserve(1)
-    maps.free_top[0] -= 1
-    t = maps.free_stack[maps.free_top[0]]
-    maps.refs[t] = 1
-    ty, tx = (-maps.origin / maps.tile_size).astype(int)[::-1]
-    maps.tables[0, ty, tx] = t
-    maps.lo[t] = 0.0
-    maps.hits[t] = 0.0
-    cells = []
+    """A one-tile map whose occupied cells hold the given surface points (one hit each)."""
+    grid = OccupancyGrid(resolution, shape=(TILE, TILE))
+    sums = np.zeros((TILE, TILE, 3), np.float32)
     for px, py in points:
-        ix, iy = np.floor((np.array([px, py]) - maps.origin) / resolution).astype(int)
-        lx, ly = ix % TILE, iy % TILE
-        maps.lo[t, ly, lx] = 2.0
-        maps.hits[t, ly, lx, HIT_X] = px - (maps.origin[0] + ix * resolution)
-        maps.hits[t, ly, lx, HIT_Y] = py - (maps.origin[1] + iy * resolution)
-        maps.hits[t, ly, lx, HIT_N] = 1.0
-        cells.append((ix, iy))
+        ix, iy = np.floor(np.array([px, py]) / resolution).astype(int)
+        grid.data[iy, ix] = 2.0
+        sums[iy, ix] = (px - ix * resolution, py - iy * resolution, 1.0)
+    maps = TiledMaps(1, resolution)
+    maps.seed_from_grid(grid, sums)
+    cells = [tuple(np.floor((np.array(p) - maps.origin) / resolution).astype(int)) for p in points]
     return maps, cells
 
 

@@ -3,7 +3,7 @@
 import numpy as np
 
 from slam_core.occupancy_grid import OccupancyGrid
-from slam_core.rbpf.tiled_map import TILE, TiledMaps
+from slam_core.rbpf.tiled_map import HIT_N, TILE, TiledMaps
 from slam_core.scan import Scan
 
 
@@ -38,7 +38,7 @@ def dense_equivalent(maps: TiledMaps, index: int, scans_and_poses) -> None:
 
 def test_tiled_integration_equals_the_dense_grid():
     rng = np.random.default_rng(3)
-    maps = TiledMaps(3, 0.05)
+    maps = TiledMaps(3, 0.05, capacity=8)  # the pools grow many times
     history = {i: [] for i in range(3)}
     for _ in range(5):
         poses = np.column_stack([rng.uniform(-3, 3, 3), rng.uniform(-3, 3, 3), rng.uniform(-3, 3, 3)])
@@ -102,3 +102,47 @@ def test_grid_round_trip_through_seed():
     np.testing.assert_allclose(a, b)
     assert outside == (0, 0)
     assert maps.to_grid(3).shape[0] % TILE == 0
+
+
+def test_writes_that_change_nothing_copy_no_tile():
+    """Free-space beams over cells already at the lower clamp leave shared tiles shared;
+    a beam that changes a cell (an echo) still copies its tile, and only for that map."""
+    maps = TiledMaps(3, 0.05)
+    settled = OccupancyGrid(0.05, origin=(-8.0, -8.0), shape=(320, 320), model=maps.model,
+                            data=np.full((320, 320), np.float32(maps.model.l_min)))
+    maps.seed_from_grid(settled)
+    shared = maps.tiles_in_use
+    no_return = Scan(np.linspace(-np.pi, np.pi, 180, endpoint=False), np.full(180, 80.0), 0.1, 80.0)
+    poses = np.array([[0.0, 0.0, 0.0], [1.0, 1.0, 0.5], [-2.0, 0.5, 1.0]])
+    maps.integrate(poses, no_return)
+    assert maps.tiles_in_use == shared
+    assert np.all(maps.tables == maps.tables[0])
+    echo = Scan(np.array([0.0]), np.array([2.0]), 0.1, 80.0)
+    maps.integrate(poses, echo)
+    assert maps.tiles_in_use > shared
+    copied = [int(np.sum(maps.tables[i] != maps.tables[(i + 1) % 3])) for i in range(3)]
+    assert 0 < max(copied) <= 2 * 3  # the echo's tile (and a neighbour) per map, nothing else
+    assert maps.to_grid(0).data.max() > maps.model.l_min  # the echo was written
+
+
+def test_only_tiles_an_echo_fell_into_hold_hit_sums():
+    """Hit blocks: none for free space, one per tile with an echo, freed with their tile."""
+    maps = TiledMaps(2, 0.05)
+    no_return = Scan(np.linspace(-np.pi, np.pi, 180, endpoint=False), np.full(180, 80.0), 0.1, 80.0)
+    maps.integrate(np.zeros((2, 3)), no_return)
+    assert maps.tiles_in_use > 0 and maps.hit_blocks_in_use == 0
+    rng = np.random.default_rng(19)
+    maps.integrate(np.array([[0.0, 0.0, 0.0], [30.0, 0.0, 0.0]]), random_scan(rng))
+    for i in range(2):
+        sums = maps.hit_sums(i)
+        n = sums[..., HIT_N]
+        tiles_hit = {(iy // TILE, ix // TILE) for iy, ix in np.argwhere(n > 0)}
+        assert len(tiles_hit) == int(np.sum(maps.hit_of[maps.tables[i][maps.tables[i] >= 0]] >= 0))
+        inside = sums[..., :HIT_N][n > 0] / n[n > 0, None]
+        assert inside.min() >= 0.0 and inside.max() < maps.resolution  # mean endpoints lie in their cells
+    per_map = [int(np.sum(maps.hit_of[maps.tables[i][maps.tables[i] >= 0]] >= 0)) for i in range(2)]
+    assert maps.hit_blocks_in_use == sum(per_map) > 0
+    maps.resample(np.array([1, 1]))
+    assert maps.hit_blocks_in_use == per_map[1]
+    with_sums_everywhere = maps.tiles_in_use * (maps.lo[0].nbytes + maps.hit_blocks[0].nbytes)
+    assert maps.nbytes() - maps.tables.nbytes < 0.6 * with_sums_everywhere

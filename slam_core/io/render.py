@@ -13,8 +13,10 @@ from slam_core.occupancy_grid import OccupancyGrid
 
 def map_image(grid: OccupancyGrid) -> np.ndarray:
     """``uint8`` grey image of the occupancy probability, top row = largest y."""
-    p = grid.probability()
-    return np.flipud((255.0 * (1.0 - p)).round().astype(np.uint8))
+    image = np.empty(grid.shape, np.uint8)
+    for rows in grid.row_blocks():
+        image[rows] = (255.0 * (1.0 - grid.probability(rows))).round().astype(np.uint8)
+    return np.flipud(image)
 
 
 def save_png(grid: OccupancyGrid, path, trajectory=None, caption: str | None = None) -> Path:

@@ -163,6 +163,9 @@ def close_filter_loops(config: RBPFConfig, mount: LaserMount, best: BestUpdates,
     del submaps
     update_poses = np.vstack([closed.poses[:first], final[is_update]])
     grid = OccupancyGrid(config.resolution, model=config.sensor)
-    for pose, scan in zip(mount.laser_poses(update_poses), update_scans, strict=True):
+    laser_poses = mount.laser_poses(update_poses)
+    boxes = np.array([grid.reach_of(s, p) for p, s in zip(laser_poses, update_scans, strict=True)])
+    grid.ensure_contains(*boxes[:, :2].min(axis=0), *boxes[:, 2:].max(axis=0))  # sized once: no copies
+    for pose, scan in zip(laser_poses, update_scans, strict=True):
         grid.integrate(scan, pose)
     return final, grid, closed, BestUpdates(update_poses, best.odometry)

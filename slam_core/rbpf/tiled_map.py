@@ -9,7 +9,10 @@ grows with what the particles disagree on, not with the particle count.
 Each cell holds the occupancy in log-odds (see :mod:`slam_core.raycast`) and
 the running sum and count of the beam endpoints that fell into it: the mean
 endpoint locates the surface inside the cell, which the scan matcher uses for
-sub-cell accuracy (as GMapping's point accumulators do).
+sub-cell accuracy (as GMapping's point accumulators do). A tile's log-odds take
+1 KB; the sums take 3 KB more, so only a tile that some echo fell into has them,
+in a *hit block* of its own (copied with the tile): most tiles a scan crosses are
+free space and have none.
 """
 
 from __future__ import annotations
@@ -27,64 +30,96 @@ TILE = 1 << TILE_BITS
 GROW_MARGIN_TILES = 4
 #: Hit sums: x, y (metres from the cell's lower-left corner) and count.
 HIT_X, HIT_Y, HIT_N = 0, 1, 2
-
-
-@njit
-def _mark_touched(tables, origin_x, origin_y, resolution, poses, angles, ranges, range_min,
-                  range_max, usable_range, no_return_range, marks):
-    """Mark, per map, the tiles a scan from that map's pose will write."""
-    tile_size = resolution * TILE
-    buf = np.empty((ray_buffer_size(usable_range, tile_size) + 4, 2), dtype=np.int64)
-    n_ty, n_tx = tables.shape[1], tables.shape[2]
-    for p in range(poses.shape[0]):
-        gx0 = (poses[p, 0] - origin_x) / tile_size
-        gy0 = (poses[p, 1] - origin_y) / tile_size
-        for b in range(angles.shape[0]):
-            use, _hit, ex, ey = beam_endpoint(poses[p, 0], poses[p, 1], poses[p, 2], angles[b],
-                                              ranges[b], range_min, range_max, usable_range,
-                                              no_return_range)
-            if not use:
-                continue
-            n = trace_ray(gx0, gy0, (ex - origin_x) / tile_size, (ey - origin_y) / tile_size, buf)
-            for k in range(n):
-                tx = buf[k, 0]
-                ty = buf[k, 1]
-                if 0 <= tx < n_tx and 0 <= ty < n_ty:
-                    marks[p, ty, tx] = True
-
-
-@njit
-def _make_exclusive(tables, marks, refs, free_stack, free_top, lo, hits):
-    """Give every marked tile of every map a private copy (or a new empty tile).
-
-    Returns the number of tiles taken from the free stack.
-    """
-    taken = 0
-    for p in range(tables.shape[0]):
-        for ty in range(tables.shape[1]):
-            for tx in range(tables.shape[2]):
-                if not marks[p, ty, tx]:
-                    continue
-                t = tables[p, ty, tx]
-                if t >= 0 and refs[t] == 1:
-                    continue
-                free_top[0] -= 1
-                new = free_stack[free_top[0]]
-                taken += 1
-                if t < 0:
-                    lo[new] = 0.0
-                    hits[new] = 0.0
-                else:
-                    lo[new] = lo[t]
-                    hits[new] = hits[t]
-                    refs[t] -= 1
-                refs[new] = 1
-                tables[p, ty, tx] = new
-    return taken
+#: Marks of a tile before a scan is integrated: it needs a copy of its own, a hit block.
+NEEDS_COPY, NEEDS_HITS = 1, 2
 
 
 @njit(parallel=True)
-def _integrate(tables, refs, lo, hits, origin_x, origin_y, resolution, poses, angles, ranges,
+def _mark_changed(tables, refs, lo, hit_of, origin_x, origin_y, resolution, poses, angles, ranges,
+                  range_min, range_max, usable_range, no_return_range, l_free, l_min, marks):
+    """Mark, per map, the shared or missing tiles a scan from that map's pose would change
+    (``NEEDS_COPY``) and the tiles an echo falls into that have no hit block (``NEEDS_HITS``).
+
+    A free-space write to a cell already at ``l_min`` leaves it as it is, so a shared tile
+    that only such writes reach stays shared: far fewer copies where the map is settled.
+    """
+    inv = 1.0 / resolution
+    n_ty, n_tx = tables.shape[1], tables.shape[2]
+    for p in prange(poses.shape[0]):
+        buf = np.empty((ray_buffer_size(usable_range, resolution), 2), dtype=np.int64)
+        gx0 = (poses[p, 0] - origin_x) * inv
+        gy0 = (poses[p, 1] - origin_y) * inv
+        for b in range(angles.shape[0]):
+            use, hit, ex, ey = beam_endpoint(poses[p, 0], poses[p, 1], poses[p, 2], angles[b],
+                                             ranges[b], range_min, range_max, usable_range,
+                                             no_return_range)
+            if not use:
+                continue
+            n = trace_ray(gx0, gy0, (ex - origin_x) * inv, (ey - origin_y) * inv, buf)
+            for k in range(n):
+                ix = buf[k, 0]
+                iy = buf[k, 1]
+                ty = iy >> TILE_BITS
+                tx = ix >> TILE_BITS
+                if ix < 0 or iy < 0 or ty >= n_ty or tx >= n_tx:
+                    continue
+                t = tables[p, ty, tx]
+                if hit and k == n - 1:
+                    if t < 0 or hit_of[t] < 0:
+                        marks[p, ty, tx] |= NEEDS_HITS
+                    if t < 0 or refs[t] != 1:
+                        marks[p, ty, tx] |= NEEDS_COPY
+                    continue
+                if marks[p, ty, tx] & NEEDS_COPY or (t >= 0 and refs[t] == 1):
+                    continue
+                if t < 0:
+                    marks[p, ty, tx] |= NEEDS_COPY
+                    continue
+                old = lo[t, iy & (TILE - 1), ix & (TILE - 1)]
+                if np.float32(max(old + l_free, l_min)) != old:
+                    marks[p, ty, tx] |= NEEDS_COPY
+
+
+@njit
+def _take(free_stack, free_top):
+    """Pop an entry's index off a pool's free stack."""
+    free_top[0] -= 1
+    return free_stack[free_top[0]]
+
+
+@njit
+def _make_exclusive(tables, marks, refs, free_stack, free_top, lo, hit_of, hit_blocks, hit_free_stack,
+                    hit_free_top):
+    """Give every map a private copy (or a new empty tile) of each tile marked ``NEEDS_COPY``,
+    and a hit block to each tile marked ``NEEDS_HITS`` (a copy takes a copy of its block)."""
+    for p in range(tables.shape[0]):
+        for ty in range(tables.shape[1]):
+            for tx in range(tables.shape[2]):
+                mark = marks[p, ty, tx]
+                if mark == 0:
+                    continue
+                t = tables[p, ty, tx]
+                if mark & NEEDS_COPY and (t < 0 or refs[t] != 1):
+                    new = _take(free_stack, free_top)
+                    hit_of[new] = -1
+                    if t < 0:
+                        lo[new] = 0.0
+                    else:
+                        lo[new] = lo[t]
+                        if hit_of[t] >= 0:
+                            hit_of[new] = _take(hit_free_stack, hit_free_top)
+                            hit_blocks[hit_of[new]] = hit_blocks[hit_of[t]]
+                        refs[t] -= 1
+                    refs[new] = 1
+                    tables[p, ty, tx] = new
+                    t = new
+                if mark & NEEDS_HITS and hit_of[t] < 0:
+                    hit_of[t] = _take(hit_free_stack, hit_free_top)
+                    hit_blocks[hit_of[t]] = 0.0
+
+
+@njit(parallel=True)
+def _integrate(tables, refs, lo, hit_of, hit_blocks, origin_x, origin_y, resolution, poses, angles, ranges,
                range_min, range_max, usable_range, no_return_range, l_free, l_occ, l_min, l_max):
     """Integrate one scan into every map at that map's pose (maps in parallel)."""
     inv = 1.0 / resolution
@@ -114,16 +149,17 @@ def _integrate(tables, refs, lo, hits, origin_x, origin_y, resolution, poses, an
                 cx = ix & (TILE - 1)
                 if hit and k == n - 1:
                     lo[t, cy, cx] = min(lo[t, cy, cx] + l_occ, l_max)
-                    hits[t, cy, cx, HIT_X] += ex - (origin_x + ix * resolution)
-                    hits[t, cy, cx, HIT_Y] += ey - (origin_y + iy * resolution)
-                    hits[t, cy, cx, HIT_N] += 1.0
+                    h = hit_of[t]
+                    hit_blocks[h, cy, cx, HIT_X] += ex - (origin_x + ix * resolution)
+                    hit_blocks[h, cy, cx, HIT_Y] += ey - (origin_y + iy * resolution)
+                    hit_blocks[h, cy, cx, HIT_N] += 1.0
                 else:
                     lo[t, cy, cx] = max(lo[t, cy, cx] + l_free, l_min)
 
 
 @njit
-def _retable(tables, refs, free_stack, free_top, parents):
-    """Replace the maps by copies of ``parents``, keeping reference counts and the free stack."""
+def _retable(tables, refs, free_stack, free_top, hit_of, hit_free_stack, hit_free_top, parents):
+    """Replace the maps by copies of ``parents``, keeping reference counts and the free stacks."""
     old = tables.copy()
     for p in range(tables.shape[0]):
         for ty in range(tables.shape[1]):
@@ -141,21 +177,29 @@ def _retable(tables, refs, free_stack, free_top, parents):
                     if refs[t] == 0:
                         free_stack[free_top[0]] = t
                         free_top[0] += 1
+                        if hit_of[t] >= 0:
+                            hit_free_stack[hit_free_top[0]] = hit_of[t]
+                            hit_free_top[0] += 1
+                            hit_of[t] = -1
 
 
-def _grown(array: np.ndarray, length: int) -> np.ndarray:
-    """``array`` in a zeroed array of ``length`` rows; only the copied rows are written."""
-    out = np.zeros((length, *array.shape[1:]), array.dtype)
-    out[:len(array)] = array
+def _grown_stack(stack: np.ndarray, free: int, old: int, new: int) -> np.ndarray:
+    """A free stack of ``free`` entries (of a pool of ``old``) with the pool's new entries up to
+    ``new`` added below the old free ones' top, lowest on top."""
+    out = np.empty(new, np.int32)
+    out[:free] = stack[:free]
+    out[free:free + new - old] = np.arange(new - 1, old - 1, -1, dtype=np.int32)
     return out
 
 
 class TiledMaps:
     """``n`` occupancy maps over one growing tile lattice, sharing tiles copy-on-write.
 
-    The pool is allocated zeroed for ``capacity`` tiles and handed out from its low end,
-    so the memory a process really holds is that of the tiles taken so far (the operating
-    system maps zeroed pages only when they are first written); it doubles when full.
+    The pools (tiles, hit blocks) are allocated zeroed for ``capacity`` entries and handed
+    out from their low ends, so the memory a process really holds is that of the entries
+    taken so far (the operating system maps zeroed pages only when they are first written);
+    when full a pool grows by a quarter, in place. The matching kernels read ``lo`` and
+    ``hits`` (each tile's hit block index, and the blocks).
     """
 
     def __init__(self, n_maps: int, resolution: float = 0.05, model: SensorModel | None = None,
@@ -163,10 +207,13 @@ class TiledMaps:
         self.resolution = float(resolution)
         self.model = model or SensorModel()
         self.lo = np.zeros((capacity, TILE, TILE), np.float32)
-        self.hits = np.zeros((capacity, TILE, TILE, 3), np.float32)
         self.refs = np.zeros(capacity, np.int32)
+        self.hit_of = np.full(capacity, -1, np.int32)
         self.free_stack = np.arange(capacity - 1, -1, -1, dtype=np.int32)
         self.free_top = np.array([capacity], np.int64)
+        self.hit_blocks = np.zeros((capacity, TILE, TILE, 3), np.float32)
+        self.hit_free_stack = np.arange(capacity - 1, -1, -1, dtype=np.int32)
+        self.hit_free_top = np.array([capacity], np.int64)
         self.tables = np.full((n_maps, 0, 0), -1, np.int32)
         self.origin = np.zeros(2)
 
@@ -179,13 +226,23 @@ class TiledMaps:
         return int(len(self.refs) - self.free_top[0])
 
     @property
+    def hit_blocks_in_use(self) -> int:
+        return int(len(self.hit_blocks) - self.hit_free_top[0])
+
+    @property
+    def hits(self) -> tuple[np.ndarray, np.ndarray]:
+        """What the matching kernels read of the endpoints: ``(hit_of, hit_blocks)``."""
+        return self.hit_of, self.hit_blocks
+
+    @property
     def tile_size(self) -> float:
         return self.resolution * TILE
 
     def nbytes(self) -> int:
-        """Bytes of the tiles in use and of the tables."""
-        per_tile = (self.lo.nbytes + self.hits.nbytes + self.refs.nbytes) // len(self.refs)
-        return self.tiles_in_use * per_tile + self.tables.nbytes
+        """Bytes of the tiles and hit blocks in use and of the tables."""
+        per_tile = (self.lo.nbytes + self.refs.nbytes + self.hit_of.nbytes) // len(self.refs)
+        per_block = self.hit_blocks.nbytes // len(self.hit_blocks)
+        return self.tiles_in_use * per_tile + self.hit_blocks_in_use * per_block + self.tables.nbytes
 
     def ensure_contains(self, xmin: float, ymin: float, xmax: float, ymax: float) -> None:
         """Grow the common tile lattice (whole tiles, with margin) to cover a world box."""
@@ -208,41 +265,56 @@ class TiledMaps:
             self.origin = self.origin - np.array([left, bottom]) * ts
 
     def integrate(self, poses: np.ndarray, scan) -> None:
-        """Integrate ``scan`` into map ``i`` at ``poses[i]``, copying shared tiles first."""
+        """Integrate ``scan`` into map ``i`` at ``poses[i]``, first copying the shared tiles it changes."""
         poses = np.ascontiguousarray(poses, dtype=np.float64).reshape(self.n_maps, 3)
         m = self.model
         reach = min(m.usable_range, max(m.no_return_range, float(np.max(scan.ranges, initial=0.0))))
         self.ensure_contains(poses[:, 0].min() - reach, poses[:, 1].min() - reach,
                              poses[:, 0].max() + reach, poses[:, 1].max() + reach)
-        marks = np.zeros(self.tables.shape, np.bool_)
+        marks = np.zeros(self.tables.shape, np.uint8)
         args = (self.origin[0], self.origin[1], self.resolution, poses, scan.angles, scan.ranges,
                 scan.range_min, scan.range_max, m.usable_range, m.no_return_range)
-        _mark_touched(self.tables, *args, marks)
-        self._reserve(int(marks.sum()))
-        _make_exclusive(self.tables, marks, self.refs, self.free_stack, self.free_top, self.lo, self.hits)
-        _integrate(self.tables, self.refs, self.lo, self.hits, *args,
+        _mark_changed(self.tables, self.refs, self.lo, self.hit_of, *args, m.l_free, m.l_min, marks)
+        self._reserve(int(np.count_nonzero(marks)))
+        _make_exclusive(self.tables, marks, self.refs, self.free_stack, self.free_top, self.lo,
+                        self.hit_of, self.hit_blocks, self.hit_free_stack, self.hit_free_top)
+        _integrate(self.tables, self.refs, self.lo, self.hit_of, self.hit_blocks, *args,
                    m.l_free, m.l_occ, m.l_min, m.l_max)
 
     def resample(self, parents: np.ndarray) -> None:
         """Map ``i`` becomes a copy of map ``parents[i]`` (sharing every tile)."""
-        _retable(self.tables, self.refs, self.free_stack, self.free_top,
-                 np.ascontiguousarray(parents, dtype=np.int64))
+        _retable(self.tables, self.refs, self.free_stack, self.free_top, self.hit_of, self.hit_free_stack,
+                 self.hit_free_top, np.ascontiguousarray(parents, dtype=np.int64))
 
     def _reserve(self, needed: int) -> None:
+        """Room for ``needed`` more tiles and hit blocks."""
         free = int(self.free_top[0])
-        if free >= needed:
-            return
-        old = len(self.refs)
-        new = max(old + needed - free, 2 * old)
-        extra = new - old
-        self.lo = _grown(self.lo, new)
-        self.hits = _grown(self.hits, new)
-        self.refs = _grown(self.refs, new)
-        stack = np.empty(new, np.int32)
-        stack[:free] = self.free_stack[:free]
-        stack[free:free + extra] = np.arange(new - 1, old - 1, -1, dtype=np.int32)
-        self.free_stack = stack
-        self.free_top[0] = free + extra
+        if free < needed:
+            old = len(self.refs)
+            new = max(old + needed - free, old + old // 4)
+            for name in ("lo", "refs", "hit_of"):
+                self._grow(name, new)
+            self.hit_of[old:] = -1
+            self.free_stack = _grown_stack(self.free_stack, free, old, new)
+            self.free_top[0] = free + new - old
+        free = int(self.hit_free_top[0])
+        if free < needed:
+            old = len(self.hit_blocks)
+            new = max(old + needed - free, old + old // 4)
+            self._grow("hit_blocks", new)
+            self.hit_free_stack = _grown_stack(self.hit_free_stack, free, old, new)
+            self.hit_free_top[0] = free + new - old
+
+    def _grow(self, name: str, length: int) -> None:
+        """Give the pool array ``name`` ``length`` rows, the new ones zero: resized in place
+        when nothing else refers to it (the allocator moves its pages, so the old rows are never
+        held twice, as a copy would), else copied."""
+        array = self.__dict__.pop(name)  # so that this is its only reference
+        try:
+            array.resize((length, *array.shape[1:]))
+        except ValueError:
+            array = np.concatenate([array, np.zeros((length - len(array), *array.shape[1:]), array.dtype)])
+        setattr(self, name, array)
 
     def to_grid(self, index: int) -> OccupancyGrid:
         """Map ``index`` as a dense :class:`OccupancyGrid` (cropped to its known tiles)."""
@@ -254,20 +326,25 @@ class TiledMaps:
 
     def hit_sums(self, index: int) -> np.ndarray:
         """Map ``index``'s per-cell hit sums ``(ny, nx, 3)`` (``HIT_*``), aligned with :meth:`to_grid`."""
-        dense = self._dense(index, self.hits)
+        dense = self._dense(index, self.hit_blocks, self.hit_of)
         return np.zeros((0, 0, 3), np.float32) if dense is None else dense[0]
 
-    def _dense(self, index: int, pool: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
-        """``pool``'s tiles of map ``index`` as one array over its known tiles, and that array's origin."""
+    def _dense(self, index: int, pool: np.ndarray,
+               block_of: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray] | None:
+        """``pool``'s blocks of map ``index``'s tiles (tile ``t``'s is ``block_of[t]``, zeros if
+        negative; ``t`` itself without ``block_of``) as one array over its known tiles, and
+        that array's origin."""
         table = self.tables[index]
         used = np.argwhere(table >= 0)
         if len(used) == 0:
             return None
         (ty0, tx0), (ty1, tx1) = used.min(axis=0), used.max(axis=0)
-        data = np.zeros(((ty1 - ty0 + 1) * TILE, (tx1 - tx0 + 1) * TILE, *pool.shape[3:]), np.float32)
+        data = np.zeros(((ty1 - ty0 + 1) * TILE, (tx1 - tx0 + 1) * TILE, *pool.shape[3:]), pool.dtype)
         for ty, tx in used:
-            y, x = (ty - ty0) * TILE, (tx - tx0) * TILE
-            data[y:y + TILE, x:x + TILE] = pool[table[ty, tx]]
+            block = table[ty, tx] if block_of is None else block_of[table[ty, tx]]
+            if block >= 0:
+                y, x = (ty - ty0) * TILE, (tx - tx0) * TILE
+                data[y:y + TILE, x:x + TILE] = pool[block]
         return data, self.origin + np.array([tx0, ty0]) * self.tile_size
 
     def seed_from_grid(self, grid: OccupancyGrid, hit_sums: np.ndarray | None = None) -> None:
@@ -297,16 +374,17 @@ class TiledMaps:
                 block[inside] = grid.data[sy, sx]
                 if not block.any():
                     continue
-                self.free_top[0] -= 1
-                t = self.free_stack[self.free_top[0]]
+                t = _take(self.free_stack, self.free_top)
                 self.lo[t] = block
-                self.hits[t] = 0.0
+                hits = np.zeros((TILE, TILE, 3), np.float32)
                 if hit_sums is not None:
-                    self.hits[t][inside] = hit_sums[sy, sx]
+                    hits[inside] = hit_sums[sy, sx]
                 else:
                     occ = block > occupied_lo * 0.5
-                    self.hits[t][occ, HIT_X] = 0.5 * self.resolution
-                    self.hits[t][occ, HIT_Y] = 0.5 * self.resolution
-                    self.hits[t][occ, HIT_N] = 1.0
+                    hits[occ] = (0.5 * self.resolution, 0.5 * self.resolution, 1.0)
+                self.hit_of[t] = -1
+                if hits[..., HIT_N].any():
+                    self.hit_of[t] = _take(self.hit_free_stack, self.hit_free_top)
+                    self.hit_blocks[self.hit_of[t]] = hits
                 self.refs[t] = self.n_maps
                 self.tables[:, ty, tx] = t
