@@ -27,12 +27,17 @@ def drive(server, goal) -> dict:
                  DRIVE_TIMEOUT_S, f"the drive to {goal}")
 
 
-def test_a_saved_map_loaded_from_the_dashboard_keeps_the_robot_localized(page, homebot_server, artifacts):
-    server = homebot_server
-    assert drive(server, KITCHEN)["nav"]["state"] == "arrived"
+def open_dashboard(page, server) -> None:
+    """Signed in with the printed link, the map and the stream there."""
     page.goto(f"{server.url}?token={server.token}")
     page.wait_for_function("window.homebot?.state.online && window.homebot.state.map.ready",
                            timeout=STREAM_TIMEOUT_MS)
+
+
+def test_a_saved_map_loaded_from_the_dashboard_keeps_the_robot_localized(page, homebot_server, artifacts):
+    server = homebot_server
+    assert drive(server, KITCHEN)["nav"]["state"] == "arrived"
+    open_dashboard(page, server)
 
     page.fill("#map-name", "home")
     page.click("#map-form button[type=submit]")
@@ -73,9 +78,7 @@ def test_a_mapping_session_is_saved_and_continued_from_the_dashboard(page, homeb
     assert r.status_code == 200, r.text
     status = drive(server, KITCHEN)
     assert status["nav"]["state"] == "arrived", status["nav"]
-    page.goto(f"{server.url}?token={server.token}")
-    page.wait_for_function("window.homebot?.state.online && window.homebot.state.map.ready",
-                           timeout=STREAM_TIMEOUT_MS)
+    open_dashboard(page, server)
     page.fill("#session-name", "flat")
     page.click("#session-form button[type=submit]")
     page.wait_for_selector("#sessions li[data-name=flat]")
