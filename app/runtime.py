@@ -105,21 +105,20 @@ class Runtime:
         start = (0.0, 0.0, 0.0)
         ready = None
         if s.simulation:
-            # The link starts beside the simulator; its grabber opens the pty once it exists.
             self.sim, ready = start_simulator(s.world, s.seed, s.data_dir / SIM_SERIAL_LINK, s.robot_config())
             port, slot = self.sim.port, self.sim.scans
             start = load_world(s.world).start  # map frame = world frame in simulation
         else:
             port, slot = s.serial_port, None
-        if not s.replay:
-            self.link = RobotLink(port, self.odometry_ring, s.serial_baud, s.robot_config().wheels).start()
         self.supervisor = WorkerSupervisor(s, self.odometry_ring, slot, self._from_relay, start,
                                            self._correction)
         self.supervisor.start()
         if s.resume_session is not None:  # `homebot serve --resume NAME` (checked before the start)
             self.supervisor.send(ResumeSession(str(s.session_file(s.resume_session))))
         if ready is not None:
-            await asyncio.to_thread(wait_ready, self.sim, ready)
+            await asyncio.to_thread(wait_ready, self.sim, ready)  # the simulated robot's pty exists now
+        if not s.replay:
+            self.link = RobotLink(port, self.odometry_ring, s.serial_baud, s.robot_config().wheels).start()
         for coro in (self._stream_ticker(), self._map_pump(), self._status_ticker(), self.navigator.run(),
                      self.rooms.run()):
             self._tasks.append(asyncio.create_task(coro))
