@@ -1,10 +1,12 @@
 """Child processes end with the server: a parent-death signal and a watcher thread.
 
-A child started by the server (the SLAM worker, the simulator) calls :func:`bind_to_parent`
-first thing. On Linux the kernel then kills it the moment its parent dies
+A child of the server (the SLAM worker, the simulator) calls :func:`bind_to_parent` first
+thing. On Linux the kernel then kills it the moment its parent dies
 (``prctl(PR_SET_PDEATHSIG, SIGKILL)``). That signal is tied to the *thread* that started the
-child, so a daemon thread also watches the parent's pid and ends the process once it has
-been orphaned. Neither path tries a clean stop: nobody reads the child's messages any more,
+child, so a daemon thread also watches the parent's pid and the server's, and ends the process
+once it has been orphaned or the server is gone. (The worker's parent is the server's fork
+server, :mod:`app.worker.supervisor`, which itself ends with the server.) Neither path tries
+a clean stop: nobody reads the child's messages any more,
 so a clean exit could wait forever on a full pipe, and what matters is already on disk
 (checkpoints are atomic and at most a second old).
 """
@@ -19,6 +21,7 @@ import signal
 import sys
 import threading
 import time
+from pathlib import Path
 
 log = logging.getLogger(__name__)
 
@@ -41,16 +44,31 @@ def set_parent_death_signal(signum: int = signal.SIGKILL) -> bool:
     return True
 
 
-def bind_to_parent(parent_pid: int) -> None:
-    """End this process as soon as ``parent_pid`` is no longer its parent (see the module docstring).
+def alive(pid: int) -> bool:
+    """Whether process ``pid`` runs (a zombie, dead but not yet reaped, does not)."""
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except FileNotFoundError:
+        return False
+    except OSError:  # no /proc: existence is all one can tell
+        try:
+            os.kill(pid, 0)
+            return True
+        except ProcessLookupError:
+            return False
+        except PermissionError:
+            return True
 
-    The parent may already be gone when this runs: then it ends at once.
-    """
+
+def bind_to_parent(server_pid: int) -> None:
+    """End this process as soon as its parent dies or ``server_pid`` no longer runs (see the
+    module docstring). The server may already be gone when this runs: then it ends at once."""
     set_parent_death_signal(signal.SIGKILL)
-    threading.Thread(target=_watch, args=(parent_pid,), name="lifeline", daemon=True).start()
+    parent = os.getppid()
+    threading.Thread(target=_watch, args=(parent, server_pid), name="lifeline", daemon=True).start()
 
 
-def _watch(parent_pid: int) -> None:
-    while os.getppid() == parent_pid:
+def _watch(parent_pid: int, server_pid: int) -> None:
+    while os.getppid() == parent_pid and alive(server_pid):
         time.sleep(POLL_S)
     os._exit(EXIT_ORPHANED)
