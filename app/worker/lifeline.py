@@ -6,9 +6,9 @@ thing. On Linux the kernel then kills it the moment its parent dies
 child, so a daemon thread also watches the parent's pid and the server's, and ends the process
 once it has been orphaned or the server is gone. (The worker's parent is the server's fork
 server, :mod:`app.worker.supervisor`, which itself ends with the server.) Neither path tries
-a clean stop: nobody reads the child's messages any more,
-so a clean exit could wait forever on a full pipe, and what matters is already on disk
-(checkpoints are atomic and at most a second old).
+a clean stop: nobody reads the child's messages any more, so a clean exit could wait forever
+on a full pipe, and what matters is already on disk (checkpoints are atomic and at most a
+second old).
 """
 
 from __future__ import annotations
