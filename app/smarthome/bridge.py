@@ -145,11 +145,15 @@ class MqttBridge:
             snapshot = self.runtime.map_snapshot
             if snapshot is None or snapshot.seq == self._map_seq or not self.link.connected.is_set():
                 continue
-            grid = self.runtime.current_grid()
-            png = await asyncio.to_thread(_png, grid)
+            png = await asyncio.to_thread(self._render_map)  # the grid is rebuilt there too
             self._map_seq = snapshot.seq
-            if png != self._map_png and self.link.publish(self.topics.map_image, png, retain=True, qos=1):
+            if png is not None and png != self._map_png and \
+                    self.link.publish(self.topics.map_image, png, retain=True, qos=1):
                 self._map_png = png
+
+    def _render_map(self) -> bytes | None:
+        grid = self.runtime.current_grid()
+        return None if grid is None else _png(grid)
 
     # commands
     async def _handle(self, topic: str, payload: bytes) -> None:
@@ -172,6 +176,10 @@ class MqttBridge:
             nav.take_over()
             nav.cancel()
             return {}
+        if isinstance(command, cmd.AddZone | cmd.DeleteZone):
+            return await self._edit_zones(command)
+        if runtime.settings.replay:
+            raise cmd.CommandError(f"replaying the log {runtime.settings.replay!r}: a log cannot be driven")
         if isinstance(command, cmd.SetMode):
             modes = available_modes()
             if command.mode not in modes:
@@ -180,11 +188,8 @@ class MqttBridge:
                 raise cmd.CommandError("the worker is not accepting commands")
             runtime.mode = command.mode
             return {"mode": command.mode}
-        if isinstance(command, cmd.AddZone | cmd.DeleteZone):
-            return await self._edit_zones(command)
-        goal = await self._goal(command)
         try:
-            started = await nav.set_goal(goal)
+            started = await nav.set_goal(await self._goal(command))
         except PlanningError as exc:
             raise cmd.CommandError(f"{exc.reason}: {exc}") from None
         return {"goal": started["goal"], "length": round(started["length"], 3)}
@@ -217,11 +222,9 @@ class MqttBridge:
             return Goal(x, y, DOCK)
         rooms = self.runtime.rooms
         try:
-            room = rooms.find(command.name)
-            x, y = await asyncio.to_thread(rooms.target, room)
+            return await rooms.goal(rooms.find(command.name), self.runtime.navigator)
         except KeyError as exc:
             raise cmd.CommandError(str(exc.args[0])) from None
-        return Goal(x, y, rooms.layout.name(room))
 
     def _dock(self) -> tuple[float, float]:
         """The place named ``dock``, else where the robot started its map."""
