@@ -26,8 +26,8 @@ from app.smarthome.discovery import Device, discovery_configs
 from app.smarthome.link import MqttLink
 from app.smarthome.robot_state import DOCK, robot_state
 from app.smarthome.topics import Topics
+from app.worker import switching
 from app.worker.estimators import available_modes
-from app.worker.messages import SetMode
 from app.zones.service import ZoneError, replan_for_zones
 from slam_core.io.render import map_image
 from slam_core.sim.world import load_world
@@ -181,13 +181,11 @@ class MqttBridge:
         if runtime.settings.replay:
             raise cmd.CommandError(f"replaying the log {runtime.settings.replay!r}: a log cannot be driven")
         if isinstance(command, cmd.SetMode):
-            modes = available_modes()
-            if command.mode not in modes:
-                raise cmd.CommandError(f"mode {command.mode!r} is not available (have: {', '.join(modes)})")
-            if not runtime.supervisor.send(SetMode(command.mode)):
-                raise cmd.CommandError("the worker is not accepting commands")
-            runtime.mode = command.mode
-            return {"mode": command.mode}
+            try:
+                made = await switching.switch_mode(runtime, command.mode)
+            except switching.SwitchRefused as exc:
+                raise cmd.CommandError(f"{exc.reason}: {exc}") from None
+            return {"mode": command.mode, "switched": made}
         try:
             started = await nav.set_goal(await self._goal(command))
         except PlanningError as exc:
