@@ -62,7 +62,7 @@ class RoomService:
         async with self._lock:
             if self.layout is None:
                 raise RoomEditError("there are no rooms yet: the map is still empty")
-            self.layout = change(self.layout)
+            self.layout = await asyncio.to_thread(change, self.layout)  # label grids: not on the loop
             await asyncio.to_thread(self.store.save, self.key, self.layout)
             return self.layout
 

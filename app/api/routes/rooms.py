@@ -60,7 +60,7 @@ async def _edited(rooms: RoomService, change) -> list[dict]:
     except RoomEditError as exc:
         code = status.HTTP_404_NOT_FOUND if str(exc).startswith("no room") else status.HTTP_409_CONFLICT
         raise HTTPException(code, str(exc)) from None
-    return rooms.rooms()
+    return await asyncio.to_thread(rooms.rooms)
 
 
 @router.get("", response_model=list[Room])
