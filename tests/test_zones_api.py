@@ -133,3 +133,22 @@ def test_a_loaded_map_brings_its_own_zones_and_rooms(server):
         assert "Saved hall" in names and "Live hall" not in names
         inside = http.post("/api/goal", json={"x": 1.7, "y": 1.3})  # in the live map's later zone
         assert inside.json().get("reason") != "goal_in_no_go_zone", inside.text
+
+
+def test_the_loaded_maps_zones_apply_after_a_restart_and_a_new_map_has_the_live_ones(server, data_dir):
+    """The worker resumes on the saved map after a restart, and the server plans with that map's
+    zones again; a new map afterwards is no saved map: the live map's zones apply, the saved
+    map's stored zones stay as they were."""
+    store = ZoneStore(data_dir / "homebot.sqlite3")
+    saved, live = store.list("zoned"), store.list("")
+    assert len(live) == len(saved) + 1  # the zone drawn on the live map after saving
+    server.stop()
+    server.start()
+    with server.client() as http:
+        assert http.get("/api/status").json()["mode"] == "localization"
+        assert [z["id"] for z in http.get("/api/zones").json()] == [z.id for z in saved]
+        new = http.put("/api/mode", json={"mode": "mapping", "new_map": True})
+        assert new.status_code == 200, new.text
+        until(lambda: [z["id"] for z in http.get("/api/zones").json()] == [z.id for z in live], 10,
+              "the live map's zones")
+    assert store.list("zoned") == saved

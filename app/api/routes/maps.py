@@ -56,8 +56,7 @@ async def create_map_load(runtime: RuntimeDep, store: StoreDep, response: Respon
     """Localize on the saved map (switches to localization mode once its files check out)."""
     yaml_path = await checked_map_file(runtime, store, name)
     answer = await switch_mode(runtime, response, "localization", str(yaml_path), name)
-    await runtime.rooms.use_map(name)
-    await asyncio.to_thread(runtime.zones.use_map, name)
+    await runtime.use_map(name)
     return answer
 
 
