@@ -9,7 +9,9 @@ import time
 import numpy as np
 import pytest
 
+from app.db.rooms import RoomStore
 from app.db.zones import ZoneStore
+from app.rooms.service import REFRESH_S
 from slam_core.planning.zones import NoGoZone
 from tests.live_server import LiveServer, until
 
@@ -138,9 +140,9 @@ def test_a_loaded_map_brings_its_own_zones_and_rooms(server):
 def test_the_loaded_maps_zones_apply_after_a_restart_and_a_new_map_has_the_live_ones(server, data_dir):
     """The worker resumes on the saved map after a restart, and the server plans with that map's
     zones again; a new map afterwards is no saved map: the live map's zones apply, the saved
-    map's stored zones stay as they were."""
-    store = ZoneStore(data_dir / "homebot.sqlite3")
-    saved, live = store.list("zoned"), store.list("")
+    map's stored zones and rooms stay as they were."""
+    store, rooms = ZoneStore(data_dir / "homebot.sqlite3"), RoomStore(data_dir / "homebot.sqlite3")
+    saved, live, saved_rooms = store.list("zoned"), store.list(""), rooms.load("zoned")
     assert len(live) == len(saved) + 1  # the zone drawn on the live map after saving
     server.stop()
     server.start()
@@ -151,4 +153,7 @@ def test_the_loaded_maps_zones_apply_after_a_restart_and_a_new_map_has_the_live_
         assert new.status_code == 200, new.text
         until(lambda: [z["id"] for z in http.get("/api/zones").json()] == [z.id for z in live], 10,
               "the live map's zones")
+        time.sleep(REFRESH_S + 1.0)  # the new map is segmented in the meantime
     assert store.list("zoned") == saved
+    again = rooms.load("zoned")
+    assert np.array_equal(again.labels, saved_rooms.labels) and again.edits == saved_rooms.edits
