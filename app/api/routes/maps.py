@@ -30,7 +30,7 @@ def read_maps(store: StoreDep) -> list[dict]:
 @router.post("", response_model=SavedMap, status_code=status.HTTP_201_CREATED)
 async def create_map(body: MapBody, runtime: RuntimeDep, store: StoreDep, settings: SettingsDep) -> dict:
     """Save the current map as ``name`` (PGM + YAML + PNG beside the database)."""
-    grid = runtime.current_grid()
+    grid = await asyncio.to_thread(runtime.current_grid)  # rebuilt from the shared map: off the loop
     if grid is None:
         raise ApiError(status.HTTP_409_CONFLICT, "no_map", "there is no map yet")
     try:
