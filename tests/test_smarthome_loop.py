@@ -1,6 +1,6 @@
 """Nothing of the smart home blocks the event loop: rebuilding the map for the MQTT map image and
 for the room segmentation happens in threads, so a ticker on the loop keeps its pace while it
-takes half a second."""
+takes a second."""
 
 from __future__ import annotations
 
@@ -17,7 +17,7 @@ from app.smarthome.bridge import MqttBridge
 from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.rooms import segment_rooms
 
-SLOW_S = 0.5
+SLOW_S = 1.0
 TICK_S = 0.01
 
 
