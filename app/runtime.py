@@ -22,7 +22,7 @@ import numpy as np
 
 from app.core.config import Settings
 from app.core.rate import SlidingRate
-from app.db.rooms import RoomStore
+from app.db.rooms import LIVE, RoomStore
 from app.db.store import Store
 from app.db.zones import ZoneStore
 from app.navigation.navigator import Navigator
@@ -172,10 +172,22 @@ class Runtime:
         if event["event"] in ("started", "changed") and "mode" in event:
             self.mode = event["mode"]
             self.mapping = event.get("mapping", self.mapping)
+        if event["event"] in ("started", "changed") and "map_name" in event:
+            self._follow_worker_map(event["map_name"] or LIVE)
         if event["event"] == "error":
             self.hub.publish("error", {"detail": event.get("detail")})
         if event["event"] in ("restarted", "started", "changed", "crashed"):
             self.hub.publish("status", self.status())
+
+    def _follow_worker_map(self, key: str) -> None:
+        """Rooms and zones follow the map the worker uses, also after a restart or on a new map."""
+        if key != self.rooms.key or key != self.zones.key:
+            self._tasks.append(asyncio.create_task(self.use_map(key)))
+
+    async def use_map(self, key: str) -> None:
+        """The rooms and zones of the saved map ``key`` (:data:`~app.db.rooms.LIVE`: the live map's)."""
+        await self.rooms.use_map(key)
+        await asyncio.to_thread(self.zones.use_map, key)
 
     def _on_replay_event(self, event: dict) -> None:
         self.replay = event["replay"]

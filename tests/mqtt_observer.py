@@ -42,6 +42,11 @@ class Observer:
         with self._lock:
             return [p for t, top, p, _ in self.messages if t >= t0 and top == topic]
 
+    def stamped(self, topic: str) -> list[tuple[float, bytes]]:
+        """Every message on ``topic`` with the monotonic time it arrived."""
+        with self._lock:
+            return [(t, p) for t, top, p, _ in self.messages if top == topic]
+
     def publish(self, topic: str, payload: str | bytes) -> None:
         self.client.publish(topic, payload, qos=1).wait_for_publish(5)
 

@@ -9,6 +9,7 @@ robot move, and restarts the broker under the running server.
 from __future__ import annotations
 
 import io
+import itertools
 import json
 import math
 import time
@@ -119,6 +120,21 @@ def test_go_to_point_drives_the_simulated_robot(server, observer):
     assert _state(observer)["state"] != "driving"
 
 
+def test_the_map_image_is_throttled_and_sent_only_when_it_changed(server, observer):
+    """HOMEBOT_MQTT_MAP_INTERVAL_S=2: the map grows while the robot drives, yet the images come at
+    least 2 s apart, and none repeats the one before it."""
+    start = server.status()["true_pose"]
+    answer = observer.command(f"{PREFIX}/command", json.dumps({"command": "go_to", "x": start[0] - 1.0,
+                                                               "y": start[1]}))
+    assert answer["ok"] is True, answer
+    observer.wait(lambda: _state(observer).get("nav_state") == "arrived", 60, "arrival")
+    images = observer.stamped(f"{PREFIX}/map/image")
+    assert len(images) >= 3, len(images)
+    gaps = [b[0] - a[0] for a, b in itertools.pairwise(images)]
+    assert min(gaps) > 2.0 - 0.3, gaps
+    assert all(a[1] != b[1] for a, b in itertools.pairwise(images))
+
+
 @pytest.mark.parametrize(("topic", "payload", "reason"), [
     ("command", "{not json", "not valid JSON"),
     ("command", '{"command": "fly"}', "unknown command"),
@@ -198,7 +214,7 @@ def test_vacuum_return_to_base_and_send_command(server, observer):
     answer = observer.command(f"{PREFIX}/vacuum/send_command", json.dumps({"command": "stop", "params": {}}))
     assert answer["ok"] is True and answer["command"] == "stop"
     answer = observer.command(f"{PREFIX}/command", '{"command": "set_mode", "mode": "mapping"}')
-    assert answer["ok"] is True and answer["mode"] == "mapping"
+    assert answer["ok"] is True and answer["mode"] == "mapping" and answer["switched"] is True, answer
 
 
 def test_broker_restart_is_survived(server, observer, broker):

@@ -9,7 +9,9 @@ import time
 import numpy as np
 import pytest
 
+from app.db.rooms import RoomStore
 from app.db.zones import ZoneStore
+from app.rooms.service import REFRESH_S
 from slam_core.planning.zones import NoGoZone
 from tests.live_server import LiveServer, until
 
@@ -110,3 +112,48 @@ def test_zones_are_stored_with_a_saved_map(server, data_dir):
         assert [z["kind"] for z in http.get("/api/zones").json()] == ["wall"]
     saved = ZoneStore(data_dir / "homebot.sqlite3").list("with-zones")
     assert [(z.kind, z.points) for z in saved] == [("wall", [[0.5, 3.0], [0.5, 4.5]])]
+
+
+def test_a_loaded_map_brings_its_own_zones_and_rooms(server):
+    """Zones and room names drawn after a map was saved stay with the live map; loading the saved
+    map plans with the zones and names stored with it."""
+    with server.client() as http:
+        rooms = until(lambda: http.get("/api/rooms").json(), 30, "rooms on the live map")
+        assert http.patch(f"/api/rooms/{rooms[0]['id']}", json={"name": "Saved hall"}).status_code == 200
+        assert http.post("/api/maps", json={"name": "zoned"}).status_code == 201
+        saved = {z["id"]: z for z in http.get("/api/zones").json()}
+        later = http.post("/api/zones", json={"kind": "zone", "points": [[1, 1], [2, 1], [2, 2]]})
+        assert later.status_code == 201
+        refused = http.post("/api/goal", json={"x": 1.7, "y": 1.3})
+        assert refused.json().get("reason") == "goal_in_no_go_zone", refused.text
+        assert http.patch(f"/api/rooms/{rooms[0]['id']}", json={"name": "Live hall"}).status_code == 200
+        loaded = http.post("/api/maps/zoned/load")
+        assert loaded.status_code in (200, 202), loaded.text
+        assert [(z["kind"], z["points"]) for z in http.get("/api/zones").json()] == \
+            [(z["kind"], z["points"]) for z in saved.values()]
+        names = until(lambda: {r["name"] for r in http.get("/api/rooms").json()}, 30, "the saved map's rooms")
+        assert "Saved hall" in names and "Live hall" not in names
+        inside = http.post("/api/goal", json={"x": 1.7, "y": 1.3})  # in the live map's later zone
+        assert inside.json().get("reason") != "goal_in_no_go_zone", inside.text
+
+
+def test_the_loaded_maps_zones_apply_after_a_restart_and_a_new_map_has_the_live_ones(server, data_dir):
+    """The worker resumes on the saved map after a restart, and the server plans with that map's
+    zones again; a new map afterwards is no saved map: the live map's zones apply, the saved
+    map's stored zones and rooms stay as they were."""
+    store, rooms = ZoneStore(data_dir / "homebot.sqlite3"), RoomStore(data_dir / "homebot.sqlite3")
+    saved, live, saved_rooms = store.list("zoned"), store.list(""), rooms.load("zoned")
+    assert len(live) == len(saved) + 1  # the zone drawn on the live map after saving
+    server.stop()
+    server.start()
+    with server.client() as http:
+        assert http.get("/api/status").json()["mode"] == "localization"
+        assert [z["id"] for z in http.get("/api/zones").json()] == [z.id for z in saved]
+        new = http.put("/api/mode", json={"mode": "mapping", "new_map": True})
+        assert new.status_code == 200, new.text
+        until(lambda: [z["id"] for z in http.get("/api/zones").json()] == [z.id for z in live], 10,
+              "the live map's zones")
+        time.sleep(REFRESH_S + 1.0)  # the new map is segmented in the meantime
+    assert store.list("zoned") == saved
+    again = rooms.load("zoned")
+    assert np.array_equal(again.labels, saved_rooms.labels) and again.edits == saved_rooms.edits

@@ -13,12 +13,12 @@ MAP_MARGIN_M = 2.0
 
 def require_in_map(runtime: Runtime, x: float, y: float, what: str) -> None:
     """422 ``outside_map`` unless (x, y) lies within the map's bounds plus the margin; 409 without a map."""
-    grid = runtime.current_grid()
-    if grid is None:
+    snap = runtime.map_snapshot  # its bounds only: the grid is not rebuilt on the event loop
+    if snap is None:
         raise ApiError(status.HTTP_409_CONFLICT, "no_map", "there is no map yet")
-    x0, y0 = float(grid.origin[0]), float(grid.origin[1])
-    x1 = x0 + grid.shape[1] * grid.resolution
-    y1 = y0 + grid.shape[0] * grid.resolution
+    x0, y0 = float(snap.origin[0]), float(snap.origin[1])
+    x1 = x0 + snap.width * snap.resolution
+    y1 = y0 + snap.height * snap.resolution
     if not (x0 - MAP_MARGIN_M <= x <= x1 + MAP_MARGIN_M and y0 - MAP_MARGIN_M <= y <= y1 + MAP_MARGIN_M):
         raise ApiError(status.HTTP_422_UNPROCESSABLE_CONTENT, "outside_map",
                        f"{what} ({x:.2f}, {y:.2f}) is outside the map: x {x0:.2f}..{x1:.2f}, "

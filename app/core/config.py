@@ -23,7 +23,7 @@ WORLDS = ("flat", "house")
 class Settings(BaseSettings):
     """Everything ``homebot serve`` can be told; defaults run the simulated robot locally."""
 
-    model_config = SettingsConfigDict(env_prefix="HOMEBOT_", extra="ignore")
+    model_config = SettingsConfigDict(env_prefix="HOMEBOT_", extra="ignore", hide_input_in_errors=True)
 
     host: str = "127.0.0.1"
     port: int = Field(8000, ge=0, le=65535)
@@ -87,7 +87,8 @@ class Settings(BaseSettings):
     mqtt_username: str | None = None
     mqtt_password: str | None = None
     mqtt_prefix: str = Field("homebot", pattern=r"^[A-Za-z0-9_\-/]+$")
-    mqtt_client_id: str = Field("homebot", min_length=1, max_length=64)
+    #: Also the node id of the discovery topics, so only letters, digits, "_" and "-".
+    mqtt_client_id: str = Field("homebot", pattern=r"^[A-Za-z0-9_\-]{1,64}$")
     mqtt_discovery_prefix: str = Field("homeassistant", pattern=r"^[A-Za-z0-9_\-/]+$")
     mqtt_map_interval_s: float = Field(5.0, ge=1.0)
 
@@ -118,6 +119,18 @@ class Settings(BaseSettings):
         """A replayed log takes the place of the simulated robot too."""
         if self.replay:
             self.simulation = False
+        return self
+
+    @model_validator(mode="after")
+    def _mqtt_settings_fit_together(self) -> Settings:
+        """A CA file is read only with TLS and must be a file; a password needs a username."""
+        if self.mqtt_ca_file is not None:
+            if not self.mqtt_tls:
+                raise ValueError("HOMEBOT_MQTT_CA_FILE is used only with HOMEBOT_MQTT_TLS=1")
+            if not self.mqtt_ca_file.is_file():
+                raise ValueError(f"HOMEBOT_MQTT_CA_FILE {self.mqtt_ca_file} is not a file")
+        if self.mqtt_password is not None and not self.mqtt_username:
+            raise ValueError("HOMEBOT_MQTT_PASSWORD needs HOMEBOT_MQTT_USERNAME")
         return self
 
     def robot_config(self) -> RobotConfig:

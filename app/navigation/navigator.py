@@ -18,9 +18,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from app.core.config import Settings
-from app.navigation.planning import PlanningError, follower_for, plan_path
+from app.navigation.planning import PlanningError, follower_for, navigable_costmap, plan_path
 from app.navigation.progress import ProgressWatch, remaining_length
 from slam_core.occupancy_grid import OccupancyGrid
+from slam_core.planning.costmap import Costmap
 from slam_core.planning.zones import Restrictions
 
 log = logging.getLogger(__name__)
@@ -120,6 +121,16 @@ class Navigator:
         return await asyncio.to_thread(plan_path, grid, np.asarray(pose, float), (goal.x, goal.y),
                                        self.restrictions(), explore=goal.explore,
                                        robot_radius=self.settings.robot_config().footprint_radius)
+
+    def navigable(self) -> tuple[Costmap, np.ndarray]:
+        """The costmap plain goals are planned on and the robot's pose; builds the costmap, so call
+        it in a thread. ``PlanningError`` without a map or pose."""
+        grid, pose = self._grid(), self._pose()
+        if grid is None or pose is None:
+            raise PlanningError("the robot has no map or pose yet")
+        costmap = navigable_costmap(grid, self.restrictions(),
+                                    robot_radius=self.settings.robot_config().footprint_radius)
+        return costmap, np.asarray(pose, float)
 
     @property
     def touring(self) -> bool:

@@ -8,11 +8,11 @@ from app.core.config import Settings
 from slam_core.control.pure_pursuit import PurePursuit, PursuitConfig
 from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.planning import planner
-from slam_core.planning.costmap import CostmapConfig, build_costmap
+from slam_core.planning.costmap import Costmap, CostmapConfig, build_costmap
 from slam_core.planning.errors import PlanningError
 from slam_core.planning.zones import Restrictions, check_goal, exit_point, restricted_costmap
 
-__all__ = ["PlanningError", "costmap_config", "follower_for", "plan_path"]
+__all__ = ["PlanningError", "costmap_config", "follower_for", "navigable_costmap", "plan_path"]
 
 
 #: A cell the robot has seen to be more likely free than not is mapped free space (the dashboard
@@ -26,6 +26,15 @@ def costmap_config(robot_radius: float, explore: bool) -> CostmapConfig:
     if explore:
         return CostmapConfig(robot_radius=robot_radius, free_thresh=MAPPED_FREE_BELOW)
     return CostmapConfig(robot_radius=robot_radius, unknown_cost=None, free_thresh=MAPPED_FREE_BELOW)
+
+
+def navigable_costmap(grid: OccupancyGrid, restrictions: Restrictions | None, *,
+                      robot_radius: float) -> Costmap:
+    """The costmap a goal that does not explore is planned on: mapped free space, with the no-go
+    zones and virtual walls lethal."""
+    config = costmap_config(robot_radius, explore=False)
+    costmap = build_costmap(grid, config)
+    return restricted_costmap(costmap, restrictions, config.robot_radius) if restrictions else costmap
 
 
 def plan_path(grid: OccupancyGrid, pose: np.ndarray, goal, restrictions: Restrictions | None = None,

@@ -2,7 +2,7 @@
 
 It keeps the current :class:`~slam_core.rooms.layout.RoomLayout` (ids, names and edits that
 last as the map grows), stores it per map (:class:`~app.db.rooms.RoomStore`), answers which
-room a point is in, and where to drive to reach a room.
+room a point is in, and where to drive to reach a room (a point inside it the robot can reach).
 """
 
 from __future__ import annotations
@@ -14,10 +14,12 @@ from collections.abc import Callable
 import numpy as np
 
 from app.db.rooms import LIVE, RoomStore
+from app.navigation.navigator import Goal, Navigator
 from slam_core.distance_transform import distance_to_features
 from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.rooms import segment_rooms
 from slam_core.rooms.layout import RoomEditError, RoomLayout, follow
+from slam_core.rooms.target import room_target
 
 log = logging.getLogger(__name__)
 
@@ -46,7 +48,7 @@ class RoomService:
 
     async def refresh(self) -> None:
         """Segment the current map if it changed since the last time."""
-        grid = self._grid()
+        grid = await asyncio.to_thread(self._grid)  # rebuilt from the shared map: not on the loop
         if grid is None or grid is self._segmented:
             return
         async with self._lock:
@@ -60,7 +62,7 @@ class RoomService:
         async with self._lock:
             if self.layout is None:
                 raise RoomEditError("there are no rooms yet: the map is still empty")
-            self.layout = change(self.layout)
+            self.layout = await asyncio.to_thread(change, self.layout)  # label grids: not on the loop
             await asyncio.to_thread(self.store.save, self.key, self.layout)
             return self.layout
 
@@ -92,16 +94,24 @@ class RoomService:
             raise KeyError(f"no room named {name!r}: there are no rooms yet")
         return self.layout.find(name)
 
-    def target(self, room: int) -> tuple[float, float]:
-        """Where to drive to reach ``room``; ``KeyError`` when there is no such room."""
+    async def goal(self, room: int, navigator: Navigator) -> Goal:
+        """A goal inside ``room`` that the robot can reach (its reachable point deepest inside, see
+        :func:`~slam_core.rooms.target.room_target`); ``KeyError`` when there is no such room,
+        ``PlanningError`` (the reason) when no part of it can be reached."""
         layout = self.layout
         if layout is None or room not in layout.ids():
             raise KeyError(f"no room with id {room}")
-        return room_centre(layout, room)
+
+        def where() -> tuple[float, float]:
+            costmap, pose = navigator.navigable()
+            return room_target(layout, room, costmap, pose)
+
+        x, y = await asyncio.to_thread(where)
+        return Goal(x, y, layout.name(room))
 
 
 def room_centre(layout: RoomLayout, room: int) -> tuple[float, float]:
-    """The point of ``room`` farthest from its borders: inside it, clear of walls and doorways."""
+    """The point of ``room`` farthest from its borders (where the dashboard writes its name)."""
     iy, ix = np.nonzero(layout.labels == room)
     y0, y1, x0, x1 = iy.min(), iy.max() + 1, ix.min(), ix.max() + 1
     inside = np.pad(layout.labels[y0:y1, x0:x1] == room, 1)

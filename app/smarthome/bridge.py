@@ -26,8 +26,8 @@ from app.smarthome.discovery import Device, discovery_configs
 from app.smarthome.link import MqttLink
 from app.smarthome.robot_state import DOCK, robot_state
 from app.smarthome.topics import Topics
+from app.worker import switching
 from app.worker.estimators import available_modes
-from app.worker.messages import SetMode
 from app.zones.service import ZoneError, replan_for_zones
 from slam_core.io.render import map_image
 from slam_core.sim.world import load_world
@@ -145,11 +145,15 @@ class MqttBridge:
             snapshot = self.runtime.map_snapshot
             if snapshot is None or snapshot.seq == self._map_seq or not self.link.connected.is_set():
                 continue
-            grid = self.runtime.current_grid()
-            png = await asyncio.to_thread(_png, grid)
+            png = await asyncio.to_thread(self._render_map)  # the grid is rebuilt there too
             self._map_seq = snapshot.seq
-            if png != self._map_png and self.link.publish(self.topics.map_image, png, retain=True, qos=1):
+            if png is not None and png != self._map_png and \
+                    self.link.publish(self.topics.map_image, png, retain=True, qos=1):
                 self._map_png = png
+
+    def _render_map(self) -> bytes | None:
+        grid = self.runtime.current_grid()
+        return None if grid is None else _png(grid)
 
     # commands
     async def _handle(self, topic: str, payload: bytes) -> None:
@@ -172,19 +176,18 @@ class MqttBridge:
             nav.take_over()
             nav.cancel()
             return {}
-        if isinstance(command, cmd.SetMode):
-            modes = available_modes()
-            if command.mode not in modes:
-                raise cmd.CommandError(f"mode {command.mode!r} is not available (have: {', '.join(modes)})")
-            if not runtime.supervisor.send(SetMode(command.mode)):
-                raise cmd.CommandError("the worker is not accepting commands")
-            runtime.mode = command.mode
-            return {"mode": command.mode}
         if isinstance(command, cmd.AddZone | cmd.DeleteZone):
             return await self._edit_zones(command)
-        goal = await self._goal(command)
+        if runtime.settings.replay:
+            raise cmd.CommandError(f"replaying the log {runtime.settings.replay!r}: a log cannot be driven")
+        if isinstance(command, cmd.SetMode):
+            try:
+                made = await switching.switch_mode(runtime, command.mode)
+            except switching.SwitchRefused as exc:
+                raise cmd.CommandError(f"{exc.reason}: {exc}") from None
+            return {"mode": command.mode, "switched": made}
         try:
-            started = await nav.set_goal(goal)
+            started = await nav.set_goal(await self._goal(command))
         except PlanningError as exc:
             raise cmd.CommandError(f"{exc.reason}: {exc}") from None
         return {"goal": started["goal"], "length": round(started["length"], 3)}
@@ -217,11 +220,9 @@ class MqttBridge:
             return Goal(x, y, DOCK)
         rooms = self.runtime.rooms
         try:
-            room = rooms.find(command.name)
-            x, y = await asyncio.to_thread(rooms.target, room)
+            return await rooms.goal(rooms.find(command.name), self.runtime.navigator)
         except KeyError as exc:
             raise cmd.CommandError(str(exc.args[0])) from None
-        return Goal(x, y, rooms.layout.name(room))
 
     def _dock(self) -> tuple[float, float]:
         """The place named ``dock``, else where the robot started its map."""

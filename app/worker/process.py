@@ -273,7 +273,9 @@ class Worker:
                 grid = load_map(command.yaml_path) if command.yaml_path else None
                 if command.new_map:
                     grid = OccupancyGrid(self.settings.resolution)  # empty: mapping starts afresh
-                self._rebuild(command.mode, grid=grid, mapping=True, map_name=command.map_name)
+                # A new map is no saved map's ("" rather than None, which would keep the old name).
+                name = "" if command.new_map else command.map_name
+                self._rebuild(command.mode, grid=grid, mapping=True, map_name=name)
                 # Back to mapping: register the scans before drawing them (other modes need no map
                 # or, on a loaded map, localize by themselves).
                 self._start_relocalizing(command.mode == "mapping" and not command.new_map)
@@ -292,7 +294,7 @@ class Worker:
                 self._save_session(Path(command.path))
             elif isinstance(command, ResumeSession):
                 self._resume_session(load_session(Path(command.path)))
-            self._event("changed", mode=self.mode, mapping=self.mapping)
+            self._event("changed", mode=self.mode, mapping=self.mapping, map_name=self.map_name or None)
         except (ModeUnavailable, ValueError, OSError) as exc:
             self._event("error", detail=f"{type(command).__name__}: {exc}")
 
@@ -387,7 +389,7 @@ class Worker:
         preview, self.preview = self.preview, None
         for pair in preview.pairs if preview is not None else ():
             self._step(pair, publish=False)
-        self._event("started", restart=self.spec.restart, mode=self.mode)
+        self._event("started", restart=self.spec.restart, mode=self.mode, map_name=self.map_name or None)
         commands, self.deferred = self.deferred, []
         for command in commands:
             self._handle(command)
@@ -418,7 +420,7 @@ class Worker:
         for source in self.sources:
             source.start()
         if self.warming is None:
-            self._event("started", restart=self.spec.restart, mode=self.mode)
+            self._event("started", restart=self.spec.restart, mode=self.mode, map_name=self.map_name or None)
         reported_healthy = False
         next_map = next_checkpoint = next_pose_save = time.monotonic()
         try:

@@ -39,19 +39,19 @@ def ros_map_files(grid: OccupancyGrid) -> tuple[bytes, bytes]:
 @router.get(".png", response_class=Response, responses={200: {"content": {"image/png": {}}}})
 async def read_map_png(runtime: RuntimeDep) -> Response:
     """The map as a PNG picture (white free, black walls, grey unknown; y up)."""
-    data = await asyncio.to_thread(png_bytes, _grid(runtime))
+    data = await asyncio.to_thread(lambda: png_bytes(_grid(runtime)))
     return Response(data, media_type="image/png", headers={"Cache-Control": "no-store"})
 
 
 @router.get(".pgm", response_class=Response, responses={200: {"content": {"image/x-portable-graymap": {}}}})
 async def read_map_pgm(runtime: RuntimeDep) -> Response:
     """The map image of the ROS map_server format."""
-    pgm, _ = await asyncio.to_thread(ros_map_files, _grid(runtime))
+    pgm, _ = await asyncio.to_thread(lambda: ros_map_files(_grid(runtime)))
     return Response(pgm, media_type="image/x-portable-graymap", headers={"Cache-Control": "no-store"})
 
 
 @router.get(".yaml", response_class=Response, responses={200: {"content": {"application/yaml": {}}}})
 async def read_map_yaml(runtime: RuntimeDep) -> Response:
     """The map metadata of the ROS map_server format (``image: map.pgm``)."""
-    _, yml = await asyncio.to_thread(ros_map_files, _grid(runtime))
+    _, yml = await asyncio.to_thread(lambda: ros_map_files(_grid(runtime)))
     return Response(yml, media_type="application/yaml", headers={"Cache-Control": "no-store"})

@@ -30,7 +30,7 @@ def read_maps(store: StoreDep) -> list[dict]:
 @router.post("", response_model=SavedMap, status_code=status.HTTP_201_CREATED)
 async def create_map(body: MapBody, runtime: RuntimeDep, store: StoreDep, settings: SettingsDep) -> dict:
     """Save the current map as ``name`` (PGM + YAML + PNG beside the database)."""
-    grid = runtime.current_grid()
+    grid = await asyncio.to_thread(runtime.current_grid)  # rebuilt from the shared map: off the loop
     if grid is None:
         raise ApiError(status.HTTP_409_CONFLICT, "no_map", "there is no map yet")
     try:
@@ -56,8 +56,7 @@ async def create_map_load(runtime: RuntimeDep, store: StoreDep, response: Respon
     """Localize on the saved map (switches to localization mode once its files check out)."""
     yaml_path = await checked_map_file(runtime, store, name)
     answer = await switch_mode(runtime, response, "localization", str(yaml_path), name)
-    await runtime.rooms.use_map(name)
-    await asyncio.to_thread(runtime.zones.use_map, name)
+    await runtime.use_map(name)
     return answer
 
 

@@ -9,10 +9,12 @@ from fastapi import APIRouter, HTTPException, Path, status
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from app.api.deps import RuntimeDep
+from app.api.errors import ApiError
 from app.api.models import Coordinate, GoalResponse
+from app.api.replay_guard import NotReplaying
 from app.api.routes.navigation import start_goal
 from app.db.names import check_name
-from app.navigation.navigator import Goal
+from app.navigation.planning import PlanningError
 from app.rooms.overlay import overlay
 from app.rooms.service import RoomService, room_centre
 from slam_core.rooms.layout import RoomEditError
@@ -58,7 +60,7 @@ async def _edited(rooms: RoomService, change) -> list[dict]:
     except RoomEditError as exc:
         code = status.HTTP_404_NOT_FOUND if str(exc).startswith("no room") else status.HTTP_409_CONFLICT
         raise HTTPException(code, str(exc)) from None
-    return rooms.rooms()
+    return await asyncio.to_thread(rooms.rooms)
 
 
 @router.get("", response_model=list[Room])
@@ -96,11 +98,15 @@ async def create_split(body: SplitBody, runtime: RuntimeDep, room: int = RoomId)
     return await _edited(runtime.rooms, lambda layout: layout.split(room, body.a, body.b))
 
 
-@router.post("/{room:int}/go", response_model=GoalResponse, status_code=status.HTTP_202_ACCEPTED)
+@router.post("/{room:int}/go", response_model=GoalResponse, status_code=status.HTTP_202_ACCEPTED,
+             dependencies=[NotReplaying])
 async def create_room_goal(runtime: RuntimeDep, room: int = RoomId) -> dict:
-    """Drive to the middle of the room (its point farthest from walls and doorways)."""
+    """Drive into the room: to its point farthest from walls and doorways among those the robot can
+    reach (422 ``room_unreachable`` when walls, no-go zones or unmapped space cut it off)."""
     try:
-        x, y = runtime.rooms.target(room)
+        goal = await runtime.rooms.goal(room, runtime.navigator)
     except KeyError as exc:
         raise HTTPException(status.HTTP_404_NOT_FOUND, str(exc.args[0])) from None
-    return await start_goal(runtime, Goal(x, y, runtime.rooms.layout.name(room)))
+    except PlanningError as exc:
+        raise ApiError(status.HTTP_422_UNPROCESSABLE_CONTENT, exc.reason, str(exc)) from None
+    return await start_goal(runtime, goal)
