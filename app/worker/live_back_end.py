@@ -15,8 +15,11 @@ A back end may start from a saved mapping session (:mod:`slam_core.session`): it
 come first in every solve, so loops close against the old part, and :meth:`LiveBackEnd.session`
 gives the session to save or to carry over when the estimator is rebuilt.
 
-Each solve is a full re-solve over all updates so far (not yet incremental), so its cost
-grows with the map.
+Solves are incremental: each goes on from the last one's :class:`~slam_core.graph.loop_closure.LoopMemory`
+(the loop edges found stay, only the updates since are searched, the graph starts from the
+edges kept), and every time the map has doubled since the last full solve, a full one searches
+every update again from the optimised poses (closures the drift hid at first). The map is
+rendered again from the optimised poses after every solve.
 """
 
 from __future__ import annotations
@@ -28,13 +31,16 @@ from dataclasses import dataclass
 import numpy as np
 
 from slam_core.geometry import compose, inverse
-from slam_core.graph.loop_closure import close_loops
+from slam_core.graph.loop_closure import LoopMemory, close_loops
 from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.pipelines.log_slam import best_updates
 from slam_core.rbpf import RBPFConfig, RBPFSlam
 from slam_core.rbpf.laser_mount import LaserMount
 from slam_core.scan import Scan
 from slam_core.session import MappingSession
+
+#: A full solve (every update searched again) once the updates have grown this much since the last.
+FULL_SOLVE_GROWTH = 2.0
 
 
 @dataclass(frozen=True)
@@ -77,6 +83,8 @@ class LiveBackEnd:
         self._thread: threading.Thread | None = None
         self._done: BackEndResult | None = None
         self._lock = threading.Lock()
+        self._memory: LoopMemory | None = None  # the last solve's (read and written by solves only)
+        self._full_at = 0  # updates at the last full solve
 
     @classmethod
     def attached_to(cls, estimator, prior: MappingSession | None = None) -> LiveBackEnd | None:
@@ -129,7 +137,12 @@ class LiveBackEnd:
     def _solve(self, poses: np.ndarray, scans: list[Scan], layout: OccupancyGrid) -> None:
         started = time.perf_counter()
         c = self.config
-        closed, _ = close_loops(poses, scans, c.loop_closure, c.matcher, c.resolution, c.sensor, self.mount)
+        memory = self._memory if len(poses) < FULL_SOLVE_GROWTH * self._full_at else None
+        closed, _ = close_loops(poses, scans, c.loop_closure, c.matcher, c.resolution, c.sensor, self.mount,
+                                memory)
+        self._memory = closed.memory
+        if memory is None:
+            self._full_at = len(poses)
         grid = render(c, self.mount, closed.poses, scans, layout)
         result = BackEndResult(closed.poses, poses, closed.loop_edges, grid, time.perf_counter() - started)
         with self._lock:

@@ -20,6 +20,10 @@ trajectory at its filter updates and
    loop edges that still disagree, optimises again; the next round searches
    again from the optimised poses, which finds the closures the drift hid.
 
+A trajectory that keeps growing (the live back end) is solved again with the
+:class:`LoopMemory` of its last solve: the loop edges found stay, only the new
+updates are searched, and the graph starts from the edges kept.
+
 Every scan then gets its update's optimised pose moved by the odometry since, and
 is matched against its update's submap (:func:`scan_poses`). Matching runs
 on every core (the kernels release the GIL), one submap per task.
@@ -54,6 +58,30 @@ BLOCK_CELLS = 4
 
 
 @dataclass
+class LoopMemory:
+    """What one solve leaves for the next solve of the same trajectory grown longer: the laser
+    poses it searched from, how many of its submaps were complete, the loop edges it kept
+    ``{(anchor, update): (z, information)}`` and the wide searches it tried ``{(submap, update)}``."""
+
+    poses: np.ndarray
+    submaps: int
+    edges: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]]
+    tried_wide: set[tuple[int, int]]
+
+    def reusable(self, poses: np.ndarray, submap_updates: int
+                 ) -> tuple[int, dict[tuple[int, int], tuple[np.ndarray, np.ndarray]], set[tuple[int, int]]]:
+        """For laser ``poses`` now: the first update to search again (those before it are where
+        they were, so their submaps and searches still hold), the edges and wide searches kept."""
+        m = min(len(self.poses), len(poses))
+        differs = np.flatnonzero(np.any(self.poses[:m] != poses[:m], axis=1))
+        same = int(differs[0]) if len(differs) else m
+        whole = min(self.submaps, same // submap_updates)  # submaps built of unchanged updates only
+        edges = {(a, q): e for (a, q), e in self.edges.items() if q < same and a // submap_updates < whole}
+        tried = {(sub, q) for sub, q in self.tried_wide if q < same and sub < whole}
+        return same, edges, tried
+
+
+@dataclass
 class LoopClosureResult:
     """The optimised poses of the updates and what the search did; ``loop_pairs`` are the
     kept loop edges as ``(submap anchor, update)``."""
@@ -63,6 +91,7 @@ class LoopClosureResult:
     rejected_edges: int = 0
     candidates_tried: int = 0
     loop_pairs: list[tuple[int, int]] = field(default_factory=list)
+    memory: LoopMemory | None = None  # for the next solve of this trajectory grown longer
 
     def stats(self) -> dict:
         return {"loop_edges": self.loop_edges, "rejected_loop_edges": self.rejected_edges,
@@ -172,10 +201,12 @@ def _match(sub: Submap, start: np.ndarray, beams: np.ndarray, points: np.ndarray
 
 def close_loops(poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig | None = None,
                 matcher: MatcherParams | None = None, resolution: float = 0.05,
-                model: SensorModel | None = None, laser_mount=None) -> tuple[LoopClosureResult, Submaps]:
+                model: SensorModel | None = None, laser_mount=None, memory: LoopMemory | None = None
+                ) -> tuple[LoopClosureResult, Submaps]:
     """Loop-closed robot poses for the filter's robot poses at its updates with their scans
     (taken by a laser at ``laser_mount`` in the robot frame); also the submaps (for
-    :func:`scan_poses`), which hold the laser's poses."""
+    :func:`scan_poses`), which hold the laser's poses. With the ``memory`` of a solve of the
+    first part of this trajectory, only the updates since are searched."""
     config = config or LoopClosureConfig()
     matcher = matcher or MatcherParams()
     model = model or SensorModel()
@@ -192,8 +223,11 @@ def close_loops(poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig 
     chain = _chain_information(poses, config)
     drift = ChainDrift(poses, path, config)
     estimate = poses.copy()
+    first = 0  # the first update searched
     edges: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}  # (anchor, update): (z, info)
     tried_wide: set[tuple[int, int]] = set()
+    if memory is not None:
+        first, edges, tried_wide = memory.reusable(poses, config.submap_updates)
     narrow = (config.linear_window, config.angular_window)
 
     def try_submap(s: int, queries: list[tuple[int, float, float]], estimate: np.ndarray):
@@ -219,22 +253,27 @@ def close_loops(poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig 
             for s, found in pool.map(lambda item: try_submap(*item, estimate), sorted(pairs.items())):
                 for q, z, info in found:
                     edges[(int(submaps.anchors[s]), q)] = (z, info)
+        return solve(estimate)
+
+    def solve(estimate: np.ndarray):
         estimate, dropped = robust_solve(poses, chain, edges, config.outlier_chi2)
         for key in dropped:
             del edges[key]
         result.rejected_edges += len(dropped)
         return estimate
 
+    if edges:
+        estimate = solve(estimate)  # the searches start where the edges kept put the poses
     for _ in range(config.rounds):
         pairs: dict[int, list[tuple[int, float, float]]] = {}
-        for q in range(n):
+        for q in range(first, n):
             for s in _candidates(q, estimate, path, submaps, config):
                 if (int(submaps.anchors[s]), q) not in edges:
                     pairs.setdefault(s, []).append((q, *narrow))
         estimate = search_and_solve(pairs, estimate)
         linked = {q for _, q in edges}
         pairs = {}
-        for q in range(0, n, config.wide_every):
+        for q in range(first + (-first) % config.wide_every, n, config.wide_every):
             if q in linked:
                 continue
             for s, linear, angular in _wide_candidates(q, estimate, path, submaps, drift, config):
@@ -245,6 +284,7 @@ def close_loops(poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig 
     result.poses = mount.robot_poses(estimate)
     result.loop_edges = len(edges)
     result.loop_pairs = list(edges)
+    result.memory = LoopMemory(poses.copy(), n // config.submap_updates, dict(edges), set(tried_wide))
     return result, submaps
 
 
