@@ -88,6 +88,10 @@ def test_oversized_bodies_are_413_declared_or_chunked(server):
         assert r.request.headers.get("transfer-encoding") == "chunked"
         assert_error(r, 413, "body_too_large")
         assert_error(c.post("/api/places", content=b" " * (limit + 1)), 413, "body_too_large")
+        for path in ("/api/mapping/stop", "/api/logout"):  # routes that never read a body
+            assert_error(c.post(path, content=chunks(), headers={"Content-Type": "application/json"}),
+                         413, "body_too_large")
+        assert c.get("/api/mode").json()["mapping"], "the refused request never reached the route"
 
 
 def test_names_any_script_no_suffix_games(server):
