@@ -204,6 +204,21 @@ def test_browser_sessions_expire_and_logout_revokes_them(server):
         assert_error(stolen.get("/api/status"), 401, "unauthorized")
 
 
+def test_the_cookie_is_secure_over_https_from_the_proxy(server):
+    def cookies(headers):
+        with httpx.Client(base_url=server.base, headers=headers) as c:
+            login = c.post("/api/login", json={"token": server.token}).headers["set-cookie"]
+            session = login.split(";")[0]  # sent by hand: the client keeps Secure cookies for https
+            logout = c.post("/api/logout", headers={"Cookie": session})
+            assert logout.status_code == 200, logout.text
+            return login.lower(), logout.headers["set-cookie"].lower()
+
+    for cookie in cookies({"X-Forwarded-Proto": "https"}):  # a TLS proxy on 127.0.0.1 (trusted)
+        assert "; secure" in cookie and "samesite=strict" in cookie, cookie
+    for cookie in cookies({}):
+        assert "secure" not in cookie, cookie
+
+
 def test_logins_are_rate_limited_per_client(server):
     with httpx.Client(base_url=server.base) as c:
         attacker = {"X-Forwarded-For": "203.0.113.7"}  # trusted from 127.0.0.1, as from a reverse proxy

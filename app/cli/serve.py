@@ -129,8 +129,15 @@ def run(args: argparse.Namespace) -> int:
     print("homebot: starting ...", flush=True)
     announce_when_serving(settings.host, settings.port, lines)  # once the page answers
     app = create_app(settings, stop_server=lambda: setattr(server, "should_exit", True))
-    server = uvicorn.Server(uvicorn.Config(app, host=settings.host, port=settings.port, log_level="warning",
-                                           proxy_headers=True, forwarded_allow_ips="127.0.0.1",
-                                           ws_max_size=64 * 1024))
+    server = uvicorn.Server(server_config(app, settings))
     server.run()
     return 0
+
+
+def server_config(app, settings):
+    """uvicorn's settings: the proxy headers trusted from ``settings.forwarded_allow_ips`` only."""
+    import uvicorn
+
+    return uvicorn.Config(app, host=settings.host, port=settings.port, log_level="warning",
+                          proxy_headers=True, forwarded_allow_ips=settings.forwarded_allow_ips,
+                          ws_max_size=64 * 1024)

@@ -54,6 +54,9 @@ class Settings(BaseSettings):
     resume_session: str | None = None
 
     cors_origins: Annotated[list[str], NoDecode] = Field(default_factory=list)
+    #: The reverse proxy's addresses (comma-separated IPs or networks): only its ``X-Forwarded-Proto``
+    #: and ``X-Forwarded-For`` count (https: a ``Secure`` cookie; the client whose logins are limited).
+    forwarded_allow_ips: str = "127.0.0.1"
     max_body_bytes: int = Field(64 * 1024, ge=1024)
     token: str | None = Field(None, min_length=32)
 
