@@ -130,6 +130,20 @@ def test_a_broken_saved_map_is_refused_by_name_and_the_worker_stays(server, case
         store.delete_map(name)
 
 
+def test_a_broken_session_is_refused_and_no_answer_shows_a_server_path(server):
+    sessions = server.data_dir / "sessions"
+    sessions.mkdir(exist_ok=True)
+    (sessions / "broken.session.npz").write_bytes(b"not a session")
+    with server.client() as c:
+        body = assert_error(c.post("/api/sessions/broken/resume"), 409, "session_refused")
+        assert "DATA/sessions/broken.session.npz" in body["detail"], body
+        answers = c.get("/api/status").text, c.get("/api/health").text
+    for text in answers:  # the worker's error event and last error, DATA-relative too
+        assert "broken.session.npz" in answers[0]
+        assert str(server.data_dir.resolve()) not in text and str(server.data_dir) not in text, text
+    (sessions / "broken.session.npz").unlink()
+
+
 def test_mode_answers_once_the_worker_switched(server):
     with server.client() as c:
         r = c.put("/api/mode", json={"mode": "ekf"})

@@ -12,12 +12,14 @@ import logging
 import multiprocessing as mp
 import os
 import queue
+import re
 import signal
 import threading
 import time
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -41,6 +43,16 @@ RESTART_DELAY_CAP_S = 30.0
 HISTORY_KEPT = 20
 #: Failures in a row (workers that died before they were healthy) that make a crash loop.
 CRASH_LOOP_FAILURES = 2
+
+
+def without_data_dir(text: str, data_dir: Path) -> str:
+    """``text`` with the server's data folder written as ``DATA``: events and errors reach clients
+    (status, stream, health, 409s), server paths must not."""
+    text = text.replace(str(data_dir.resolve()), "DATA")
+    if data_dir.is_absolute():
+        return text.replace(str(data_dir), "DATA")
+    # A relative data dir: only where it starts a path (``data/maps/x``, not ``metadata/``).
+    return re.sub(rf"(?<![\w./-]){re.escape(str(data_dir))}(?=/)", "DATA", text)
 
 
 def restart_delay(base_s: float, failures: int, cap_s: float = RESTART_DELAY_CAP_S) -> float:
@@ -191,6 +203,10 @@ class WorkerSupervisor:
         if not accepted(message, WorkerMessage, "supervisor"):
             return
         event = message.name if isinstance(message, WorkerEvent) else None
+        if event is not None:
+            message = WorkerEvent(message.name, message.t, {
+                k: without_data_dir(v, self.settings.data_dir) if isinstance(v, str) else v
+                for k, v in message.fields.items()})
         if event in ("crashed", "error"):
             self.health.last_error = message.fields.get("detail")
         elif event == "started":

