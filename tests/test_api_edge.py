@@ -130,10 +130,12 @@ def test_a_broken_saved_map_is_refused_by_name_and_the_worker_stays(server, case
         store.delete_map(name)
 
 
-def test_a_broken_session_is_refused_and_no_answer_shows_a_server_path(server):
+@pytest.mark.parametrize("content", [b"not a session", np.lib.format.magic(1, 0) + bytes(64)])
+def test_a_broken_session_is_refused_and_no_answer_shows_a_server_path(server, content):
     sessions = server.data_dir / "sessions"
     sessions.mkdir(exist_ok=True)
-    (sessions / "broken.session.npz").write_bytes(b"not a session")
+    (sessions / "broken.session.npz").write_bytes(content)  # garbage, then a bare .npy array
+    restarts = server.status()["worker"]["restarts"]
     with server.client() as c:
         body = assert_error(c.post("/api/sessions/broken/resume"), 409, "session_refused")
         assert "DATA/sessions/broken.session.npz" in body["detail"], body
@@ -141,6 +143,7 @@ def test_a_broken_session_is_refused_and_no_answer_shows_a_server_path(server):
     for text in answers:  # the worker's error event and last error, DATA-relative too
         assert "broken.session.npz" in answers[0]
         assert str(server.data_dir.resolve()) not in text and str(server.data_dir) not in text, text
+    assert server.status()["worker"]["restarts"] == restarts
     (sessions / "broken.session.npz").unlink()
 
 
