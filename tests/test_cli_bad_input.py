@@ -1,6 +1,6 @@
 """Every subcommand turns a bad input file into one line on stderr that names the file (and the
 line, where there is one) and exits 2; no traceback unless ``--debug`` (the corpus is in
-``tests/bad_input.py``)."""
+``tests/bad_input.py``; ``serve --replay`` refuses a bad log before it serves)."""
 
 from __future__ import annotations
 
@@ -38,6 +38,20 @@ def test_a_bad_log_is_one_line_naming_the_file(capsys, tmp_path, good_map, comma
     log, expected = write_bad_log(tmp_path, case)
     extra = ["--map", str(good_map)] if command == "localize" else []
     err = one_line_error(capsys, [command, str(log), "--out", str(tmp_path / "out"), *extra])
+    assert expected in err, err
+
+
+@pytest.mark.parametrize("case", sorted(BAD_LOGS))
+def test_serve_refuses_a_bad_log_to_replay_before_serving(capsys, monkeypatch, tmp_path, case):
+    import uvicorn
+
+    class NeverServes:
+        def __init__(self, config):
+            raise AssertionError(f"homebot serve --replay started a server on the bad log {case}")
+
+    monkeypatch.setattr(uvicorn, "Server", NeverServes)
+    log, expected = write_bad_log(tmp_path, case)
+    err = one_line_error(capsys, ["serve", "--replay", str(log), "--data", str(tmp_path / "data")])
     assert expected in err, err
 
 
