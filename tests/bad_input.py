@@ -1,5 +1,5 @@
-"""The bad-input corpus: requests, hostile names, broken map files and broken logs, each with the
-answer homebot must give. ``tests/test_api_edge.py`` runs it against a live server and
+"""The bad-input corpus: requests, websocket messages, hostile names, broken map files and broken
+logs, each with the answer homebot must give. ``tests/test_api_edge.py`` runs it against a live server and
 ``tests/test_cli_bad_input.py`` against the CLI."""
 
 from __future__ import annotations
@@ -48,6 +48,24 @@ BAD_REQUESTS = [
     ("POST", "/api/maps", {"name": ".hidden"}, 422, "invalid_request"),
     ("POST", "/api/maps", {"name": "x" * 65}, 422, "invalid_request"),
     ("POST", "/api/login", {"token": 5}, 422, "invalid_request"),
+]
+
+#: (websocket message text, the ``error`` reply's reason)
+BAD_WS_MESSAGES = [
+    ('{"type": "goal", "x": 1e300, "y": 0}', "invalid_request"),
+    ('{"type": "goal", "x": "1", "y": 0}', "invalid_request"),
+    ('{"type": "goal", "x": true, "y": 1}', "invalid_request"),
+    ('{"type": "goal", "x": NaN, "y": 1}', "invalid_request"),
+    ('{"type": "goal", "place": "../x"}', "invalid_request"),
+    ('{"type": "goal", "place": "nowhere"}', "not_found"),
+    ('{"type": "goal", "x": 300, "y": 300}', "goal_outside_map"),
+    ('{"type": "goal", "x": 1, "y": 1, "bogus": 1}', "invalid_request"),
+    ('{"type": "teleop", "v": 9, "w": 0}', "invalid_request"),
+    ('{"type": "teleop"}', "invalid_request"),
+    ('{"type": 5}', "invalid_request"),
+    ("[1, 2]", "invalid_request"),
+    ("not json", "invalid_request"),
+    ("x" * 5000, "invalid_request"),
 ]
 
 #: case -> (YAML text, image bytes, words the error must contain)

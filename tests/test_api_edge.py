@@ -17,7 +17,7 @@ from scipy.ndimage import distance_transform_edt
 
 from app.db.store import Store
 from slam_core.io.ros_map import load_map
-from tests.bad_input import BAD_MAPS, BAD_REQUESTS, write_bad_map
+from tests.bad_input import BAD_MAPS, BAD_REQUESTS, BAD_WS_MESSAGES, write_bad_map
 from tests.live_server import LiveServer
 
 GOOD_ORIGIN = "https://dashboard.example"
@@ -262,6 +262,25 @@ def test_the_websocket_checks_the_origin(server):
     assert asyncio.run(first(GOOD_ORIGIN)) == "hello"
     assert asyncio.run(first(f"http://127.0.0.1:{server.port}")) == "hello"
     assert asyncio.run(first(None)) == "hello"
+
+
+def test_bad_websocket_messages_get_an_error_with_a_reason(server):
+    async def replies():
+        async with websockets.connect(f"{server.ws_url}?token={server.token}") as ws:
+            found = []
+            for text, _ in BAD_WS_MESSAGES:
+                await ws.send(text)
+                while (reply := await asyncio.wait_for(ws.recv(), 10)) and (
+                        isinstance(reply, bytes) or json.loads(reply)["type"] != "error"):
+                    pass
+                found.append(json.loads(reply))
+            return found
+
+    for (text, reason), reply in zip(BAD_WS_MESSAGES, asyncio.run(replies()), strict=True):
+        assert reply["reason"] == reason, (text[:60], reply)
+        detail = reply["detail"]
+        assert "\n" not in detail and "pydantic.dev" not in detail and len(detail) < 300, (text[:60], reply)
+    assert server.status()["goal"] is None
 
 
 def test_docs_and_their_assets_come_from_homebot(server):
