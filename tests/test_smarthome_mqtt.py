@@ -146,7 +146,7 @@ def test_bad_commands_are_answered_with_a_reason(server, observer, topic, payloa
 
 def test_places_appear_in_the_go_to_select_and_drive_there(server, observer):
     pose = server.status()["true_pose"]
-    place = {"name": "hallway", "x": round(pose[0] - 0.8, 2), "y": round(pose[1], 2), "yaw": 0.0}
+    place = {"name": "hallway", "x": round(pose[0] - 0.8, 2), "y": round(pose[1], 2), "yaw": 1.5}
     with server.client() as http:
         assert http.post("/api/places", json=place).status_code == 201
     select = "homeassistant/select/homebot/go_to/config"
@@ -154,6 +154,7 @@ def test_places_appear_in_the_go_to_select_and_drive_there(server, observer):
                   "the place in the go-to select")
     answer = observer.command(f"{PREFIX}/goto/set", "place: hallway")
     assert answer["ok"] is True and answer["goal"]["place"] == "hallway", answer
+    assert answer["goal"]["yaw"] == pytest.approx(1.5), "the place's heading is part of the goal"
     observer.wait(lambda: _state(observer).get("goal") == "hallway", 10, "the goal in the state")
     stopped = observer.command(f"{PREFIX}/stop/press", "PRESS")
     assert stopped["ok"] is True and stopped["command"] == "stop"
