@@ -48,6 +48,8 @@ BAD_REQUESTS = [
     ("POST", "/api/maps", {"name": ".hidden"}, 422, "invalid_request"),
     ("POST", "/api/maps", {"name": "x" * 65}, 422, "invalid_request"),
     ("POST", "/api/login", {"token": 5}, 422, "invalid_request"),
+    ("DELETE", "/api/zones/99999999999999999999999", None, 422, "invalid_request"),  # beyond SQLite's
+    ("PATCH", "/api/rooms/99999999999999999999999", {"name": "x"}, 422, "invalid_request"),
 ]
 
 #: (websocket message text, the ``error`` reply's reason)

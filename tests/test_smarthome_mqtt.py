@@ -133,6 +133,7 @@ def test_go_to_point_drives_the_simulated_robot(server, observer):
     ("command", '{"command": "add_zone", "points": [[0, 0], [1, 1]]}', "3 to"),
     ("command", '{"command": "add_wall", "points": [[0, 0], [1, "a"]]}', "finite number"),
     ("command", '{"command": "delete_zone", "zone": 999}', "no zone or wall with id 999"),
+    ("command", '{"command": "delete_zone", "zone": 99999999999999999999999}', "no zone or wall with id"),
     ("command", '{"command": "delete_zone"}', "positive integer"),
     ("goto/set", "garage", "unknown go-to option"),
     ("mode/set", "", "non-empty"),
