@@ -127,3 +127,33 @@ def write_bad_log(directory: Path, case: str) -> tuple[Path, str]:
     else:
         path.write_bytes(data)
     return path, expected
+
+
+#: case -> (SLAM config file bytes (``--config``), words the error must contain)
+BAD_CONFIGS = {
+    "binary": (bytes(range(256)), "config.json: not a SLAM config"),
+    "not_json": (b"{particles: 8", "config.json: not a SLAM config"),
+    "list": (b"[1, 2]", "must be a JSON object"),
+    "unknown_key": (b'{"particles": 8, "no_such_setting": 1}', "unknown key no_such_setting"),
+    "string_number": (b'{"particles": "many"}', "particles must be an integer"),
+    "nan": (b'{"resolution": NaN}', "resolution must be a number"),
+    "huge": (b'{"matcher": {"max_range": 1e300}}', "matcher.max_range must be a number"),
+    "infinite_count": (b'{"particles": 1e999}', "particles must be an integer"),
+    "tiny_resolution": (b'{"resolution": 1e-9}', "resolution in"),
+    "boolean_as_number": (b'{"loop_closure": {"enabled": 1}}', "loop_closure.enabled must be true or false"),
+}
+
+SIMULATED_ROBOT = Path(__file__).resolve().parents[1] / "slam_core" / "robots" / "simulated.yaml"
+
+#: case -> (robot file bytes (``--robot``), words the error must contain)
+BAD_ROBOTS = {
+    "binary": (bytes(range(256)), "robot.yaml: not a text file"),
+    "nan": (SIMULATED_ROBOT.read_bytes().replace(b"wheel_base: 0.23", b"wheel_base: .nan"),
+            "wheels.wheel_base must be finite"),
+    "huge": (SIMULATED_ROBOT.read_bytes().replace(b"beams: 360", b"beams: 1000000000000"),
+             "laser.beams must be finite and within"),
+    "far_mount": (SIMULATED_ROBOT.read_bytes().replace(b"{x: 0.0,", b"{x: 1.0e+300,"),
+                  "laser.mount.x must be finite and within"),
+    "mount_off_the_robot": (SIMULATED_ROBOT.read_bytes().replace(b"{x: 0.0,", b"{x: 50.0,"),
+                            "more than 10 m from the robot's centre"),
+}

@@ -10,7 +10,16 @@ import sys
 import pytest
 
 from app.cli import main
-from tests.bad_input import BAD_LOGS, BAD_MAPS, GOOD_PGM, GOOD_YAML, write_bad_log, write_bad_map
+from tests.bad_input import (
+    BAD_CONFIGS,
+    BAD_LOGS,
+    BAD_MAPS,
+    BAD_ROBOTS,
+    GOOD_PGM,
+    GOOD_YAML,
+    write_bad_log,
+    write_bad_map,
+)
 from tests.live_server import ROOT
 
 LOG_COMMANDS = ("map", "slam", "ekf", "localize")
@@ -41,18 +50,45 @@ def test_a_bad_log_is_one_line_naming_the_file(capsys, tmp_path, good_map, comma
     assert expected in err, err
 
 
-@pytest.mark.parametrize("case", sorted(BAD_LOGS))
-def test_serve_refuses_a_bad_log_to_replay_before_serving(capsys, monkeypatch, tmp_path, case):
+@pytest.fixture
+def never_serves(monkeypatch):
+    """``homebot serve`` must refuse its input before the server starts."""
     import uvicorn
 
     class NeverServes:
         def __init__(self, config):
-            raise AssertionError(f"homebot serve --replay started a server on the bad log {case}")
+            raise AssertionError("homebot serve started a server on bad input")
 
     monkeypatch.setattr(uvicorn, "Server", NeverServes)
+
+
+@pytest.mark.parametrize("case", sorted(BAD_LOGS))
+def test_serve_refuses_a_bad_log_to_replay_before_serving(capsys, never_serves, tmp_path, case):
     log, expected = write_bad_log(tmp_path, case)
     err = one_line_error(capsys, ["serve", "--replay", str(log), "--data", str(tmp_path / "data")])
     assert expected in err, err
+
+
+@pytest.mark.parametrize("case", sorted(BAD_CONFIGS))
+def test_a_bad_slam_config_is_refused_by_slam_and_serve(capsys, never_serves, tmp_path, case):
+    config = tmp_path / "config.json"
+    config.write_bytes(BAD_CONFIGS[case][0])
+    log, _ = write_bad_log(tmp_path, "empty")  # read only after the config
+    commands = (["slam", str(log), "--out", str(tmp_path / "out")], ["serve", "--data", str(tmp_path / "d")])
+    for argv in commands:
+        err = one_line_error(capsys, [*argv, "--config", str(config)])
+        assert "config.json" in err and BAD_CONFIGS[case][1] in err, err
+
+
+@pytest.mark.parametrize("case", sorted(BAD_ROBOTS))
+def test_a_bad_robot_file_is_refused_by_every_command_that_reads_one(capsys, never_serves, tmp_path, case):
+    robot = tmp_path / "robot.yaml"
+    robot.write_bytes(BAD_ROBOTS[case][0])
+    commands = (["serve", "--data", str(tmp_path / "d")], ["link", "/dev/null", "--seconds", "0.1"],
+                ["sim", "record", "flat", "--out", str(tmp_path / "o")])
+    for argv in commands:
+        err = one_line_error(capsys, [*argv, "--robot", str(robot)])
+        assert "robot.yaml" in err and BAD_ROBOTS[case][1] in err, err
 
 
 @pytest.mark.parametrize("case", sorted(BAD_MAPS))

@@ -64,14 +64,6 @@ def _replay_overrides(args: argparse.Namespace) -> dict:
     return {"replay": args.replay, "replay_speed": speed, "replay_exit_at_end": args.exit_at_end}
 
 
-def _check_slam_config(settings) -> None:
-    """Refuse a SLAM settings file the worker could not use, before serving."""
-    try:
-        settings.slam()
-    except (TypeError, KeyError, ValueError) as exc:
-        raise ValueError(f"--config {settings.slam_config}: not a SLAM config ({exc})") from None
-
-
 def write_effective_config(settings) -> list[Path]:
     """Write the robot (``robot.yaml``, as ``--robot`` reads it) and SLAM settings (``config.json``,
     as ``--config`` and ``homebot slam --config`` read it) this server runs with into the data dir
@@ -113,7 +105,7 @@ def run(args: argparse.Namespace) -> int:
     if not settings.simulation and not settings.replay and not settings.sensor_source:
         raise ValueError("a real robot needs HOMEBOT_SENSOR_SOURCE=module:callable giving scans")
     settings.robot_config()  # a bad robot file is refused here, naming the file and the key
-    _check_slam_config(settings)
+    settings.slam()  # a bad SLAM settings file is refused here, naming the file and the key
     if settings.resume_session is not None:
         if settings.replay:
             raise ValueError("--resume continues a robot's mapping session; a replay starts afresh")

@@ -50,7 +50,7 @@ def effective_config(args, base: RBPFConfig | None = None) -> RBPFConfig:
     """``base`` (a resumed session's) or the defaults, then --config, then the options given."""
     config = base or RBPFConfig()
     if args.config is not None:
-        config = RBPFConfig.from_dict(json.loads(args.config.read_text()))
+        config = RBPFConfig.from_file(args.config)
     overrides = {"particles": args.particles, "linear_update": args.linear_update,
                  "angular_update": args.angular_update}
     if args.no_loop_closure:

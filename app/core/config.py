@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from functools import lru_cache
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Literal
@@ -174,4 +173,4 @@ class Settings(BaseSettings):
 def _slam_from(path: Path | None) -> RBPFConfig:
     from slam_core.rbpf.config import RBPFConfig
 
-    return RBPFConfig() if path is None else RBPFConfig.from_dict(json.loads(Path(path).read_text()))
+    return RBPFConfig() if path is None else RBPFConfig.from_file(path)
