@@ -109,7 +109,8 @@ BAD_LOGS = {
     "empty": ("empty.clf", b"", "empty.clf"),
     "truncated_gz": ("cut.clf.gz", gzip.compress(GOOD_LOG_LINES.encode() * 50)[:40], "cut.clf.gz"),
     "truncated_bz2": ("cut.clf.bz2", bz2.compress(GOOD_LOG_LINES.encode() * 50)[:40], "cut.clf.bz2"),
-    "garbage_line": ("garbage.clf", b"FLASER -5 1 2\n", "garbage.clf:1: FLASER beam count must be at least 1"),
+    "garbage_line": ("garbage.clf", b"FLASER -5 1 2\n",
+                     "garbage.clf:1: FLASER beam count must be at least 1"),
     "nan_pose": ("nan.clf", GOOD_LOG_LINES.replace("0.0 0.0 0.0 0.0 0.0 0.0", "nan 0.0 0.0 nan 0.0 0.0")
                  .encode(), "nan.clf:2"),
     "huge_pose": ("huge.clf", GOOD_LOG_LINES.replace("0.0 0.0 0.0 0.0 0.0 0.0", "1e300 0.0 0.0 1e300 0.0 0.0")
