@@ -117,6 +117,15 @@ def test_sim_record_refuses_a_bad_world_file(capsys, tmp_path, case):
     assert world.name in one_line_error(capsys, ["sim", "record", str(world), "--out", str(tmp_path / "o")])
 
 
+@pytest.mark.parametrize("trajectory, relations", [("0 0 0 0\n1 1e300 0 0\n", "0 1 1 0 0 0 0 0\n"),
+                                                    ("0 0 0 0\n1 1 0 0\n", "0 1 1e300 0 0 0 0 0\n")])
+def test_eval_refuses_huge_numbers(capsys, tmp_path, trajectory, relations):
+    (tmp_path / "t.txt").write_text(trajectory)
+    (tmp_path / "r.relations").write_text(relations)
+    err = one_line_error(capsys, ["eval", str(tmp_path / "t.txt"), str(tmp_path / "r.relations")])
+    assert "within ±1e+06" in err and ("t.txt" in err or "r.relations" in err), err
+
+
 @pytest.mark.parametrize("case", ["binary", "directory"])
 def test_link_refuses_what_is_not_a_serial_device(capsys, tmp_path, case):
     port, _ = write_bad_log(tmp_path, case)
