@@ -158,3 +158,18 @@ BAD_ROBOTS = {
     "mount_off_the_robot": (SIMULATED_ROBOT.read_bytes().replace(b"{x: 0.0,", b"{x: 50.0,"),
                             "more than 10 m from the robot's centre"),
 }
+
+SHIPPED_WORLD = Path(__file__).resolve().parents[1] / "slam_core" / "sim" / "worlds" / "flat.txt"
+
+#: case -> (world file text (``homebot sim record``), words the error must contain)
+BAD_WORLDS = {
+    "huge_wall": (SHIPPED_WORLD.read_text().replace("room kitchen   0.0 0.0 4.0 3.0",
+                                                    "room kitchen   0.0 0.0 4.0e300 3.0"),
+                  "world.txt:8: room corners (x0 y0 x1 y1): 4.0e300 is beyond"),
+    "huge_start": (SHIPPED_WORLD.read_text().replace("start   1.0 3.75 0", "start   1e300 3.75 0"),
+                   "world.txt:5: start (x y theta_degrees): 1e300 is beyond"),
+    "start_outside": (SHIPPED_WORLD.read_text().replace("start   1.0 3.75 0", "start   9000 3.75 0"),
+                      "world.txt:5: start (9000, 3.75) lies outside the walls"),
+    "nan": (SHIPPED_WORLD.read_text().replace("door 2.5 3.0 3.3 3.0", "door 2.5 nan 3.3 3.0"),
+            "is not a finite number"),
+}

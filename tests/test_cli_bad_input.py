@@ -15,8 +15,10 @@ from tests.bad_input import (
     BAD_LOGS,
     BAD_MAPS,
     BAD_ROBOTS,
+    BAD_WORLDS,
     GOOD_PGM,
     GOOD_YAML,
+    SHIPPED_WORLD,
     write_bad_log,
     write_bad_map,
 )
@@ -124,6 +126,15 @@ def test_eval_refuses_huge_numbers(capsys, tmp_path, trajectory, relations):
     (tmp_path / "r.relations").write_text(relations)
     err = one_line_error(capsys, ["eval", str(tmp_path / "t.txt"), str(tmp_path / "r.relations")])
     assert "within ±1e+06" in err and ("t.txt" in err or "r.relations" in err), err
+
+
+@pytest.mark.parametrize("case", sorted(BAD_WORLDS))
+def test_sim_record_refuses_nan_huge_numbers_and_a_start_outside_the_walls(capsys, tmp_path, case):
+    world = tmp_path / "world.txt"
+    text, expected = BAD_WORLDS[case]
+    assert text != SHIPPED_WORLD.read_text(), "the case changed the shipped world"
+    world.write_text(text)
+    assert expected in one_line_error(capsys, ["sim", "record", str(world), "--out", str(tmp_path / "o")])
 
 
 @pytest.mark.parametrize("case", ["binary", "directory"])
