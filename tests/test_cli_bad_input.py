@@ -82,6 +82,14 @@ def test_a_bad_slam_config_is_refused_by_slam_and_serve(capsys, never_serves, tm
         assert "config.json" in err and BAD_CONFIGS[case][1] in err, err
 
 
+@pytest.mark.parametrize("option, value, says", [("--particles", "0", "particles >= 1"),
+                                                  ("--linear-update", "nan", "linear_update must be"),
+                                                  ("--angular-update", "1e300", "angular_update must be")])
+def test_slam_options_are_checked_like_a_config_file(capsys, tmp_path, option, value, says):
+    log, _ = write_bad_log(tmp_path, "empty")  # read only after the settings
+    assert says in one_line_error(capsys, ["slam", str(log), "--out", str(tmp_path / "o"), option, value])
+
+
 @pytest.mark.parametrize("case", sorted(BAD_ROBOTS))
 def test_a_bad_robot_file_is_refused_by_every_command_that_reads_one(capsys, never_serves, tmp_path, case):
     robot = tmp_path / "robot.yaml"
