@@ -90,6 +90,14 @@ def test_slam_options_are_checked_like_a_config_file(capsys, tmp_path, option, v
     assert says in one_line_error(capsys, ["slam", str(log), "--out", str(tmp_path / "o"), option, value])
 
 
+def test_serve_names_a_bad_setting_in_one_line(capsys, never_serves, monkeypatch, tmp_path):
+    err = one_line_error(capsys, ["serve", "--data", str(tmp_path), "--port", "99999"])
+    assert "port: Input should be less than or equal to 65535" in err and "pydantic.dev" not in err, err
+    monkeypatch.setenv("HOMEBOT_TOKEN", "short")
+    err = one_line_error(capsys, ["serve", "--data", str(tmp_path)])
+    assert "token: String should have at least 32 characters" in err, err
+
+
 @pytest.mark.parametrize("case", sorted(BAD_ROBOTS))
 def test_a_bad_robot_file_is_refused_by_every_command_that_reads_one(capsys, never_serves, tmp_path, case):
     robot = tmp_path / "robot.yaml"

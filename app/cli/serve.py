@@ -87,7 +87,9 @@ def write_effective_config(settings) -> list[Path]:
 
 def run(args: argparse.Namespace) -> int:
     import uvicorn
+    from pydantic import ValidationError
 
+    from app.api.errors import validation_detail
     from app.cli.announce import announce_when_serving
     from app.core.config import Settings
     from app.core.security import load_or_create_token
@@ -101,7 +103,10 @@ def run(args: argparse.Namespace) -> int:
     if args.real:
         overrides["simulation"] = False
     overrides.update(_replay_overrides(args))
-    settings = Settings(**overrides)
+    try:
+        settings = Settings(**overrides)
+    except ValidationError as exc:
+        raise ValueError(f"bad setting (an option or HOMEBOT_* variable): {validation_detail(exc)}") from None
     if not settings.simulation and not settings.replay and not settings.sensor_source:
         raise ValueError("a real robot needs HOMEBOT_SENSOR_SOURCE=module:callable giving scans")
     settings.robot_config()  # a bad robot file is refused here, naming the file and the key
