@@ -75,6 +75,8 @@ class RobotConfig:
 POSITIVE = {"footprint_radius", "wheels.wheel_radius", "wheels.wheel_base", "wheels.ticks_per_rev",
             "laser.beams", "laser.range_max", "limits.v_max", "limits.w_max", "limits.a_max",
             "limits.alpha_max"}
+#: No number of a robot file is larger (a beam count, encoder ticks, metres).
+MAX_NUMBER = 1e6
 #: Keys that may take any finite value (a laser behind or right of the centre, turned).
 SIGNED = {"laser.mount.x", "laser.mount.y", "laser.mount.theta"}
 
@@ -82,9 +84,10 @@ SIGNED = {"laser.mount.x", "laser.mount.y", "laser.mount.theta"}
 def load_robot(path: str | Path | None = None) -> RobotConfig:
     """The robot described by the YAML file at ``path`` (``None``: the simulated robot)."""
     source = SIMULATED_ROBOT if path is None else Path(path)
-    text = source.read_text()
     try:
-        data = yaml.safe_load(text)
+        data = yaml.safe_load(source.read_bytes().decode("utf-8"))
+    except UnicodeDecodeError:
+        raise RobotConfigError(f"{source}: not a text file") from None
     except yaml.YAMLError as exc:
         raise RobotConfigError(f"{source}: not valid YAML ({exc})".replace("\n", " ")) from None
     robot = _build(RobotConfig, data, "", source)
@@ -116,7 +119,10 @@ def _build(kind: type, data, prefix: str, source):
         if name not in data:
             raise RobotConfigError(f"{source}: missing key {key}")
         values[name] = _value(hints[name], data[name], key, source)
-    return kind(**values)
+    try:
+        return kind(**values)
+    except ValueError as exc:  # the type's own check (e.g. the laser mount's reach)
+        raise RobotConfigError(f"{source}: {where}: {exc}") from None
 
 
 def _value(kind: type, value, key: str, source):
@@ -131,8 +137,8 @@ def _value(kind: type, value, key: str, source):
     if isinstance(value, bool) or not isinstance(value, numeric):
         raise RobotConfigError(f"{source}: {key} must be {'an integer' if integral else 'a number'}, "
                                f"got {value!r}")
-    if not math.isfinite(value):
-        raise RobotConfigError(f"{source}: {key} must be finite, got {value!r}")
+    if not math.isfinite(value) or abs(value) > MAX_NUMBER:
+        raise RobotConfigError(f"{source}: {key} must be finite and within ±{MAX_NUMBER:g}, got {value!r}")
     if key in POSITIVE and not value > 0:
         raise RobotConfigError(f"{source}: {key} must be positive, got {value!r}")
     if key not in SIGNED and value < 0:

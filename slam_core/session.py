@@ -108,6 +108,8 @@ def load_session(path: Path) -> MappingSession:
     """Read a session file; :class:`SessionError` naming the file for anything that is not a
     complete session of a known version."""
     path = Path(path)
+    if path.is_file() and not zipfile.is_zipfile(path):  # np.load would read a .npy or guess pickle
+        raise SessionError(f"{path}: not a session file (not a complete .npz archive)")
     try:
         with np.load(path, allow_pickle=False) as data:
             arrays = {key: data[key] for key in data.files}

@@ -1,5 +1,5 @@
-"""The bad-input corpus: requests, hostile names, broken map files and broken logs, each with the
-answer homebot must give. ``tests/test_api_edge.py`` runs it against a live server and
+"""The bad-input corpus: requests, websocket messages, hostile names, broken map files and broken
+logs, each with the answer homebot must give. ``tests/test_api_edge.py`` runs it against a live server and
 ``tests/test_cli_bad_input.py`` against the CLI."""
 
 from __future__ import annotations
@@ -48,6 +48,26 @@ BAD_REQUESTS = [
     ("POST", "/api/maps", {"name": ".hidden"}, 422, "invalid_request"),
     ("POST", "/api/maps", {"name": "x" * 65}, 422, "invalid_request"),
     ("POST", "/api/login", {"token": 5}, 422, "invalid_request"),
+    ("DELETE", "/api/zones/99999999999999999999999", None, 422, "invalid_request"),  # beyond SQLite's
+    ("PATCH", "/api/rooms/99999999999999999999999", {"name": "x"}, 422, "invalid_request"),
+]
+
+#: (websocket message text, the ``error`` reply's reason)
+BAD_WS_MESSAGES = [
+    ('{"type": "goal", "x": 1e300, "y": 0}', "invalid_request"),
+    ('{"type": "goal", "x": "1", "y": 0}', "invalid_request"),
+    ('{"type": "goal", "x": true, "y": 1}', "invalid_request"),
+    ('{"type": "goal", "x": NaN, "y": 1}', "invalid_request"),
+    ('{"type": "goal", "place": "../x"}', "invalid_request"),
+    ('{"type": "goal", "place": "nowhere"}', "not_found"),
+    ('{"type": "goal", "x": 300, "y": 300}', "goal_outside_map"),
+    ('{"type": "goal", "x": 1, "y": 1, "bogus": 1}', "invalid_request"),
+    ('{"type": "teleop", "v": 9, "w": 0}', "invalid_request"),
+    ('{"type": "teleop"}', "invalid_request"),
+    ('{"type": 5}', "invalid_request"),
+    ("[1, 2]", "invalid_request"),
+    ("not json", "invalid_request"),
+    ("x" * 5000, "invalid_request"),
 ]
 
 #: case -> (YAML text, image bytes, words the error must contain)
@@ -89,7 +109,8 @@ BAD_LOGS = {
     "empty": ("empty.clf", b"", "empty.clf"),
     "truncated_gz": ("cut.clf.gz", gzip.compress(GOOD_LOG_LINES.encode() * 50)[:40], "cut.clf.gz"),
     "truncated_bz2": ("cut.clf.bz2", bz2.compress(GOOD_LOG_LINES.encode() * 50)[:40], "cut.clf.bz2"),
-    "garbage_line": ("garbage.clf", b"FLASER -5 1 2\n", "garbage.clf:1"),
+    "garbage_line": ("garbage.clf", b"FLASER -5 1 2\n",
+                     "garbage.clf:1: FLASER beam count must be at least 1"),
     "nan_pose": ("nan.clf", GOOD_LOG_LINES.replace("0.0 0.0 0.0 0.0 0.0 0.0", "nan 0.0 0.0 nan 0.0 0.0")
                  .encode(), "nan.clf:2"),
     "huge_pose": ("huge.clf", GOOD_LOG_LINES.replace("0.0 0.0 0.0 0.0 0.0 0.0", "1e300 0.0 0.0 1e300 0.0 0.0")
@@ -107,3 +128,48 @@ def write_bad_log(directory: Path, case: str) -> tuple[Path, str]:
     else:
         path.write_bytes(data)
     return path, expected
+
+
+#: case -> (SLAM config file bytes (``--config``), words the error must contain)
+BAD_CONFIGS = {
+    "binary": (bytes(range(256)), "config.json: not a SLAM config"),
+    "not_json": (b"{particles: 8", "config.json: not a SLAM config"),
+    "list": (b"[1, 2]", "must be a JSON object"),
+    "unknown_key": (b'{"particles": 8, "no_such_setting": 1}', "unknown key no_such_setting"),
+    "string_number": (b'{"particles": "many"}', "particles must be an integer"),
+    "nan": (b'{"resolution": NaN}', "resolution must be a number"),
+    "huge": (b'{"matcher": {"max_range": 1e300}}', "matcher.max_range must be a number"),
+    "infinite_count": (b'{"particles": 1e999}', "particles must be an integer"),
+    "tiny_resolution": (b'{"resolution": 1e-9}', "resolution in"),
+    "boolean_as_number": (b'{"loop_closure": {"enabled": 1}}', "loop_closure.enabled must be true or false"),
+}
+
+SIMULATED_ROBOT = Path(__file__).resolve().parents[1] / "slam_core" / "robots" / "simulated.yaml"
+
+#: case -> (robot file bytes (``--robot``), words the error must contain)
+BAD_ROBOTS = {
+    "binary": (bytes(range(256)), "robot.yaml: not a text file"),
+    "nan": (SIMULATED_ROBOT.read_bytes().replace(b"wheel_base: 0.23", b"wheel_base: .nan"),
+            "wheels.wheel_base must be finite"),
+    "huge": (SIMULATED_ROBOT.read_bytes().replace(b"beams: 360", b"beams: 1000000000000"),
+             "laser.beams must be finite and within"),
+    "far_mount": (SIMULATED_ROBOT.read_bytes().replace(b"{x: 0.0,", b"{x: 1.0e+300,"),
+                  "laser.mount.x must be finite and within"),
+    "mount_off_the_robot": (SIMULATED_ROBOT.read_bytes().replace(b"{x: 0.0,", b"{x: 50.0,"),
+                            "more than 10 m from the robot's centre"),
+}
+
+SHIPPED_WORLD = Path(__file__).resolve().parents[1] / "slam_core" / "sim" / "worlds" / "flat.txt"
+
+#: case -> (world file text (``homebot sim record``), words the error must contain)
+BAD_WORLDS = {
+    "huge_wall": (SHIPPED_WORLD.read_text().replace("room kitchen   0.0 0.0 4.0 3.0",
+                                                    "room kitchen   0.0 0.0 4.0e300 3.0"),
+                  "world.txt:8: room corners (x0 y0 x1 y1): 4.0e300 is beyond"),
+    "huge_start": (SHIPPED_WORLD.read_text().replace("start   1.0 3.75 0", "start   1e300 3.75 0"),
+                   "world.txt:5: start (x y theta_degrees): 1e300 is beyond"),
+    "start_outside": (SHIPPED_WORLD.read_text().replace("start   1.0 3.75 0", "start   9000 3.75 0"),
+                      "world.txt:5: start (9000, 3.75) lies outside the walls"),
+    "nan": (SHIPPED_WORLD.read_text().replace("door 2.5 3.0 3.3 3.0", "door 2.5 nan 3.3 3.0"),
+            "is not a finite number"),
+}

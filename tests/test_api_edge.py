@@ -7,6 +7,7 @@ from __future__ import annotations
 import asyncio
 import json
 import math
+import re
 import time
 
 import httpx
@@ -17,7 +18,7 @@ from scipy.ndimage import distance_transform_edt
 
 from app.db.store import Store
 from slam_core.io.ros_map import load_map
-from tests.bad_input import BAD_MAPS, BAD_REQUESTS, write_bad_map
+from tests.bad_input import BAD_MAPS, BAD_REQUESTS, BAD_WS_MESSAGES, write_bad_map
 from tests.live_server import LiveServer
 
 GOOD_ORIGIN = "https://dashboard.example"
@@ -38,6 +39,7 @@ def assert_error(response: httpx.Response, status: int, reason: str | None = Non
     if reason is not None:
         assert body["reason"] == reason, body
     assert "/tmp/" not in body["detail"] and "/home/" not in body["detail"], body
+    assert not re.search(r"\d{20}", body["detail"]), "no echo of a huge number"
     return body
 
 
@@ -88,6 +90,10 @@ def test_oversized_bodies_are_413_declared_or_chunked(server):
         assert r.request.headers.get("transfer-encoding") == "chunked"
         assert_error(r, 413, "body_too_large")
         assert_error(c.post("/api/places", content=b" " * (limit + 1)), 413, "body_too_large")
+        for path in ("/api/mapping/stop", "/api/logout"):  # routes that never read a body
+            assert_error(c.post(path, content=chunks(), headers={"Content-Type": "application/json"}),
+                         413, "body_too_large")
+        assert c.get("/api/mode").json()["mapping"], "the refused request never reached the route"
 
 
 def test_names_any_script_no_suffix_games(server):
@@ -124,6 +130,23 @@ def test_a_broken_saved_map_is_refused_by_name_and_the_worker_stays(server, case
         assert status["mode"] == "mapping" and status["worker"]["alive"], status
     finally:
         store.delete_map(name)
+
+
+@pytest.mark.parametrize("content", [b"not a session", np.lib.format.magic(1, 0) + bytes(64)])
+def test_a_broken_session_is_refused_and_no_answer_shows_a_server_path(server, content):
+    sessions = server.data_dir / "sessions"
+    sessions.mkdir(exist_ok=True)
+    (sessions / "broken.session.npz").write_bytes(content)  # garbage, then a bare .npy array
+    restarts = server.status()["worker"]["restarts"]
+    with server.client() as c:
+        body = assert_error(c.post("/api/sessions/broken/resume"), 409, "session_refused")
+        assert "DATA/sessions/broken.session.npz" in body["detail"], body
+        answers = c.get("/api/status").text, c.get("/api/health").text
+    for text in answers:  # the worker's error event and last error, DATA-relative too
+        assert "broken.session.npz" in answers[0]
+        assert str(server.data_dir.resolve()) not in text and str(server.data_dir) not in text, text
+    assert server.status()["worker"]["restarts"] == restarts
+    (sessions / "broken.session.npz").unlink()
 
 
 def test_mode_answers_once_the_worker_switched(server):
@@ -200,6 +223,21 @@ def test_browser_sessions_expire_and_logout_revokes_them(server):
         assert_error(stolen.get("/api/status"), 401, "unauthorized")
 
 
+def test_the_cookie_is_secure_over_https_from_the_proxy(server):
+    def cookies(headers):
+        with httpx.Client(base_url=server.base, headers=headers) as c:
+            login = c.post("/api/login", json={"token": server.token}).headers["set-cookie"]
+            session = login.split(";")[0]  # sent by hand: the client keeps Secure cookies for https
+            logout = c.post("/api/logout", headers={"Cookie": session})
+            assert logout.status_code == 200, logout.text
+            return login.lower(), logout.headers["set-cookie"].lower()
+
+    for cookie in cookies({"X-Forwarded-Proto": "https"}):  # a TLS proxy on 127.0.0.1 (trusted)
+        assert "; secure" in cookie and "samesite=strict" in cookie, cookie
+    for cookie in cookies({}):
+        assert "secure" not in cookie, cookie
+
+
 def test_logins_are_rate_limited_per_client(server):
     with httpx.Client(base_url=server.base) as c:
         attacker = {"X-Forwarded-For": "203.0.113.7"}  # trusted from 127.0.0.1, as from a reverse proxy
@@ -226,6 +264,26 @@ def test_the_websocket_checks_the_origin(server):
     assert asyncio.run(first(GOOD_ORIGIN)) == "hello"
     assert asyncio.run(first(f"http://127.0.0.1:{server.port}")) == "hello"
     assert asyncio.run(first(None)) == "hello"
+
+
+def test_bad_websocket_messages_get_an_error_with_a_reason(server):
+    async def replies():
+        async with websockets.connect(f"{server.ws_url}?token={server.token}") as ws:
+            found = []
+            for text, _ in BAD_WS_MESSAGES:
+                await ws.send(text)
+                while (reply := await asyncio.wait_for(ws.recv(), 10)) and (
+                        isinstance(reply, bytes) or json.loads(reply)["type"] != "error"):
+                    pass
+                found.append(json.loads(reply))
+            return found
+
+    goal = server.status()["goal"]
+    for (text, reason), reply in zip(BAD_WS_MESSAGES, asyncio.run(replies()), strict=True):
+        assert reply["reason"] == reason, (text[:60], reply)
+        detail = reply["detail"]
+        assert "\n" not in detail and "pydantic.dev" not in detail and len(detail) < 300, (text[:60], reply)
+    assert server.status()["goal"] == goal, "no bad message set a goal"
 
 
 def test_docs_and_their_assets_come_from_homebot(server):

@@ -59,6 +59,7 @@ def test_compose_runs_the_simulation_on_port_8000_with_a_named_volume():
     service = compose["services"]["homebot"]
     assert service["build"] == "."
     assert service["ports"] == ["127.0.0.1:8000:8000"], "published on the loopback only"
+    assert "TLS reverse proxy" in (REPO / "docker-compose.yml").read_text(), "how to reach it from elsewhere"
     command = service["command"] if isinstance(service["command"], list) else shlex.split(service["command"])
     assert command[:2] == ["homebot", "serve"] and "--real" not in command
     assert command[command.index("--port") + 1] == "8000"

@@ -1,14 +1,19 @@
 """The security pieces on their own: token length, CORS without credentials for '*', browser
-sessions (expiry, revocation, a bounded table) and the login limit."""
+sessions (expiry, revocation, a bounded table), the login limit and whose proxy headers count."""
 
 from __future__ import annotations
 
+import asyncio
 import time
+from pathlib import Path
 
+import httpx
 import pytest
+import yaml
 from fastapi.testclient import TestClient
 from pydantic import ValidationError
 
+from app.cli.serve import server_config
 from app.core.config import Settings
 from app.core.login_limit import LoginLimiter
 from app.db.sessions import Sessions
@@ -52,3 +57,34 @@ def test_the_login_limit_counts_failures_per_client_in_a_window():
     assert 0.0 < limiter.retry_after("a") <= 0.3 and limiter.retry_after("b") == 0.0
     time.sleep(0.35)
     assert limiter.retry_after("a") == 0.0
+
+
+def _scheme_seen(settings: Settings, client_ip: str) -> str:
+    """The scheme the app sees for a request from ``client_ip`` saying ``X-Forwarded-Proto: https``,
+    behind uvicorn's proxy-header handling as ``homebot serve`` configures it."""
+    from uvicorn.middleware.proxy_headers import ProxyHeadersMiddleware
+
+    async def scheme(scope, receive, send):
+        await send({"type": "http.response.start", "status": 200, "headers": []})
+        await send({"type": "http.response.body", "body": scope["scheme"].encode()})
+
+    config = server_config(scheme, settings)
+    app = ProxyHeadersMiddleware(scheme, trusted_hosts=config.forwarded_allow_ips)
+
+    async def run():
+        transport = httpx.ASGITransport(app=app, client=(client_ip, 50000))
+        async with httpx.AsyncClient(transport=transport, base_url="http://t") as c:
+            return (await c.get("/", headers={"X-Forwarded-Proto": "https"})).text
+
+    return asyncio.run(run())
+
+
+def test_proxy_headers_count_from_the_configured_proxy_only(tmp_path):
+    local = Settings(data_dir=tmp_path)
+    assert _scheme_seen(local, "127.0.0.1") == "https"
+    assert _scheme_seen(local, "172.18.0.1") == "http"  # anyone else cannot claim https
+    compose = yaml.safe_load((Path(__file__).resolve().parents[1] / "docker-compose.yml").read_text())
+    proxies = compose["services"]["homebot"]["environment"]["HOMEBOT_FORWARDED_ALLOW_IPS"]
+    docker = Settings(data_dir=tmp_path, forwarded_allow_ips=proxies)
+    assert _scheme_seen(docker, "172.18.0.1") == "https"  # the host's proxy through Docker's gateway
+    assert _scheme_seen(docker, "203.0.113.9") == "http"

@@ -236,11 +236,31 @@ def test_body_size_limit_counts_streamed_bodies():
             assert (await c.post("/", content=b"x" * 1000)).text == "1000"
             assert (await c.post("/", content=b"x" * 1001)).status_code == 413
 
-            async def chunks():
-                for _ in range(5):
+            async def chunks(n):
+                for _ in range(n):
                     yield b"y" * 300
 
-            r = await c.post("/", content=chunks())  # no Content-Length
+            assert (await c.post("/", content=chunks(3))).text == "900"  # no Content-Length: handed on whole
+            r = await c.post("/", content=chunks(5))
             assert r.status_code == 413 and "1000" in r.json()["detail"]
+
+    asyncio.run(run())
+
+
+def test_body_size_limit_refuses_a_streamed_body_the_app_never_reads():
+    async def ignores_the_body(scope, receive, send):
+        await send({"type": "http.response.start", "status": 200, "headers": []})
+        await send({"type": "http.response.body", "body": b"ok"})
+
+    app = BodySizeLimit(ignores_the_body, max_bytes=1000)
+
+    async def run():
+        async def chunks():
+            for _ in range(5):
+                yield b"y" * 300
+
+        async with httpx.AsyncClient(transport=httpx.ASGITransport(app=app), base_url="http://t") as c:
+            assert (await c.post("/", content=chunks())).status_code == 413
+            assert (await c.get("/")).text == "ok"
 
     asyncio.run(run())

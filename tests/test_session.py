@@ -66,9 +66,15 @@ def _rewrite(path, **changes) -> None:
         np.savez(f, **arrays)
 
 
+def _write_npy(path) -> None:
+    with open(path, "wb") as f:
+        np.save(f, np.zeros(3))
+
+
 @pytest.mark.parametrize("damage, says", [
-    (lambda p: p.write_bytes(p.read_bytes()[: len(p.read_bytes()) // 2]), "not a readable session"),
-    (lambda p: p.write_bytes(b"\x89PNG garbage"), "not a readable session"),
+    (lambda p: p.write_bytes(p.read_bytes()[: len(p.read_bytes()) // 2]), "not a complete .npz"),
+    (lambda p: p.write_bytes(b"\x89PNG garbage"), "not a complete .npz"),
+    (lambda p: _write_npy(p), "not a complete .npz"),  # a bare array crashed the server's worker
     (lambda p: _rewrite(p, version=np.array(VERSION + 1)), f"version {VERSION + 1}"),
     (lambda p: _rewrite(p, format=np.array("something-else")), "not a homebot session"),
     (lambda p: _rewrite(p, offsets=np.array([0, 3, 2], np.int64)), "do not fit together"),

@@ -95,7 +95,7 @@ def test_a_saved_session_is_continued_after_a_fresh_start_into_one_map(tmp_path)
 def test_serve_refuses_a_session_it_cannot_continue_in_one_line(tmp_path):
     (tmp_path / "sessions").mkdir()
     (tmp_path / "sessions" / f"broken{SUFFIX}").write_bytes(b"PK\x03\x04 not a session")
-    for name, says in (("nope", "no such session file"), ("broken", "not a readable session file"),
+    for name, says in (("nope", "no such session file"), ("broken", "not a complete .npz archive"),
                        ("a.b", "bad session name")):
         command = [sys.executable, "-m", "app.cli", "serve", "--data", str(tmp_path), "--resume", name]
         done = subprocess.run(command, cwd=ROOT, capture_output=True, text=True, timeout=120)

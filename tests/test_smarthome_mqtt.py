@@ -149,6 +149,7 @@ def test_the_map_image_is_throttled_and_sent_only_when_it_changed(server, observ
     ("command", '{"command": "add_zone", "points": [[0, 0], [1, 1]]}', "3 to"),
     ("command", '{"command": "add_wall", "points": [[0, 0], [1, "a"]]}', "finite number"),
     ("command", '{"command": "delete_zone", "zone": 999}', "no zone or wall with id 999"),
+    ("command", '{"command": "delete_zone", "zone": 99999999999999999999999}', "no zone or wall with id"),
     ("command", '{"command": "delete_zone"}', "positive integer"),
     ("goto/set", "garage", "unknown go-to option"),
     ("mode/set", "", "non-empty"),
@@ -162,7 +163,7 @@ def test_bad_commands_are_answered_with_a_reason(server, observer, topic, payloa
 
 def test_places_appear_in_the_go_to_select_and_drive_there(server, observer):
     pose = server.status()["true_pose"]
-    place = {"name": "hallway", "x": round(pose[0] - 0.8, 2), "y": round(pose[1], 2), "yaw": 0.0}
+    place = {"name": "hallway", "x": round(pose[0] - 0.8, 2), "y": round(pose[1], 2), "yaw": 1.5}
     with server.client() as http:
         assert http.post("/api/places", json=place).status_code == 201
     select = "homeassistant/select/homebot/go_to/config"
@@ -170,6 +171,7 @@ def test_places_appear_in_the_go_to_select_and_drive_there(server, observer):
                   "the place in the go-to select")
     answer = observer.command(f"{PREFIX}/goto/set", "place: hallway")
     assert answer["ok"] is True and answer["goal"]["place"] == "hallway", answer
+    assert answer["goal"]["yaw"] == pytest.approx(1.5), "the place's heading is part of the goal"
     observer.wait(lambda: _state(observer).get("goal") == "hallway", 10, "the goal in the state")
     stopped = observer.command(f"{PREFIX}/stop/press", "PRESS")
     assert stopped["ok"] is True and stopped["command"] == "stop"

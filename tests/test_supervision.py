@@ -15,7 +15,7 @@ import httpx
 import pytest
 
 from app.worker.lockfile import DataDirBusy, acquire_worker_lock
-from app.worker.supervisor import RESTART_DELAY_CAP_S, restart_delay
+from app.worker.supervisor import RESTART_DELAY_CAP_S, restart_delay, without_data_dir
 from tests.live_server import LiveServer
 from tests.recovery_harness import descendants
 
@@ -49,6 +49,16 @@ def _hold_lock(data_dir: str, ready) -> None:
     acquire_worker_lock(Path(data_dir))
     ready.set()
     time.sleep(60)
+
+
+def test_worker_messages_name_the_data_dir_as_data(tmp_path, monkeypatch):
+    absolute = tmp_path / "data"
+    text = f"SaveSession: {absolute}/sessions/a.session.npz: No space left"
+    assert without_data_dir(text, absolute) == "SaveSession: DATA/sessions/a.session.npz: No space left"
+    monkeypatch.chdir(tmp_path)
+    relative = Path("data")
+    text = f"{absolute}/maps/x.yaml, data/maps/y.yaml and metadata/z: bad"
+    assert without_data_dir(text, relative) == "DATA/maps/x.yaml, DATA/maps/y.yaml and metadata/z: bad"
 
 
 def test_a_worker_left_by_an_earlier_server_is_ended_before_a_new_one_runs(tmp_path):

@@ -10,7 +10,7 @@ from __future__ import annotations
 from fastapi import FastAPI, HTTPException, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
-from pydantic import BaseModel, Field
+from pydantic import BaseModel, Field, ValidationError
 from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.routing import Match, Mount
 
@@ -54,7 +54,7 @@ ERROR_RESPONSES = _described(400, 401, 404, 405, 409, 413, 415, 422, 429, 503)
 OPEN_ERROR_RESPONSES = _described(400, 404, 405, 413, 415, 422, 429, 503)
 
 
-def validation_detail(exc: RequestValidationError) -> str:
+def validation_detail(exc: RequestValidationError | ValidationError) -> str:
     """``body.x: Input should be a finite number; ...`` from pydantic's error list."""
     parts = []
     for error in exc.errors():

@@ -10,6 +10,7 @@ import numpy as np
 from app.cli.inputs import text_file
 from slam_core.datasets import resolve_relations
 from slam_core.evaluation import MAX_DT, load_relations, relation_error
+from slam_core.io.carmen import MAX_POSE_VALUE
 from slam_core.io.trajectory import Trajectory
 
 
@@ -23,14 +24,21 @@ def register(sub) -> None:
     p.set_defaults(run=run)
 
 
+def _sane(values: np.ndarray) -> bool:
+    """Finite and no farther than any robot travels (as a log's poses must be)."""
+    return bool(np.isfinite(values).all() and (np.abs(values) <= MAX_POSE_VALUE).all())
+
+
 def run(args) -> int:
     trajectory = Trajectory.load(text_file(args.trajectory))
-    if len(trajectory.poses) < 2 or not np.isfinite(trajectory.poses).all():
-        raise ValueError(f"{args.trajectory}: need at least two poses, all finite")
+    if len(trajectory.poses) < 2 or not _sane(trajectory.poses):
+        raise ValueError(f"{args.trajectory}: need at least two poses, all finite and within "
+                         f"±{MAX_POSE_VALUE:g}")
     relations_path = text_file(resolve_relations(args.relations))
     relations = load_relations(relations_path)
-    if not np.isfinite(relations).all():
-        raise ValueError(f"{relations_path}: relations must be finite")
+    if not (np.isfinite(relations).all() and _sane(relations[:, 2:])):
+        raise ValueError(f"{relations_path}: relations must be finite, their motions within "
+                         f"±{MAX_POSE_VALUE:g}")
     result = relation_error(trajectory.times, trajectory.poses, relations)
     if result.count == 0:
         raise ValueError(f"{relations_path}: no relation matches a pose of {args.trajectory}")

@@ -64,14 +64,6 @@ def _replay_overrides(args: argparse.Namespace) -> dict:
     return {"replay": args.replay, "replay_speed": speed, "replay_exit_at_end": args.exit_at_end}
 
 
-def _check_slam_config(settings) -> None:
-    """Refuse a SLAM settings file the worker could not use, before serving."""
-    try:
-        settings.slam()
-    except (TypeError, KeyError, ValueError) as exc:
-        raise ValueError(f"--config {settings.slam_config}: not a SLAM config ({exc})") from None
-
-
 def write_effective_config(settings) -> list[Path]:
     """Write the robot (``robot.yaml``, as ``--robot`` reads it) and SLAM settings (``config.json``,
     as ``--config`` and ``homebot slam --config`` read it) this server runs with into the data dir
@@ -95,7 +87,9 @@ def write_effective_config(settings) -> list[Path]:
 
 def run(args: argparse.Namespace) -> int:
     import uvicorn
+    from pydantic import ValidationError
 
+    from app.api.errors import validation_detail
     from app.cli.announce import announce_when_serving
     from app.core.config import Settings
     from app.core.security import load_or_create_token
@@ -109,11 +103,14 @@ def run(args: argparse.Namespace) -> int:
     if args.real:
         overrides["simulation"] = False
     overrides.update(_replay_overrides(args))
-    settings = Settings(**overrides)
+    try:
+        settings = Settings(**overrides)
+    except ValidationError as exc:
+        raise ValueError(f"bad setting (an option or HOMEBOT_* variable): {validation_detail(exc)}") from None
     if not settings.simulation and not settings.replay and not settings.sensor_source:
         raise ValueError("a real robot needs HOMEBOT_SENSOR_SOURCE=module:callable giving scans")
     settings.robot_config()  # a bad robot file is refused here, naming the file and the key
-    _check_slam_config(settings)
+    settings.slam()  # a bad SLAM settings file is refused here, naming the file and the key
     if settings.resume_session is not None:
         if settings.replay:
             raise ValueError("--resume continues a robot's mapping session; a replay starts afresh")
@@ -129,8 +126,15 @@ def run(args: argparse.Namespace) -> int:
     print("homebot: starting ...", flush=True)
     announce_when_serving(settings.host, settings.port, lines)  # once the page answers
     app = create_app(settings, stop_server=lambda: setattr(server, "should_exit", True))
-    server = uvicorn.Server(uvicorn.Config(app, host=settings.host, port=settings.port, log_level="warning",
-                                           proxy_headers=True, forwarded_allow_ips="127.0.0.1",
-                                           ws_max_size=64 * 1024))
+    server = uvicorn.Server(server_config(app, settings))
     server.run()
     return 0
+
+
+def server_config(app, settings):
+    """uvicorn's settings: the proxy headers trusted from ``settings.forwarded_allow_ips`` only."""
+    import uvicorn
+
+    return uvicorn.Config(app, host=settings.host, port=settings.port, log_level="warning",
+                          proxy_headers=True, forwarded_allow_ips=settings.forwarded_allow_ips,
+                          ws_max_size=64 * 1024)

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import resource
 import sys
@@ -50,12 +49,14 @@ def effective_config(args, base: RBPFConfig | None = None) -> RBPFConfig:
     """``base`` (a resumed session's) or the defaults, then --config, then the options given."""
     config = base or RBPFConfig()
     if args.config is not None:
-        config = RBPFConfig.from_dict(json.loads(args.config.read_text()))
-    overrides = {"particles": args.particles, "linear_update": args.linear_update,
-                 "angular_update": args.angular_update}
+        config = RBPFConfig.from_file(args.config)
+    data = config.to_dict()
+    options = {"particles": args.particles, "linear_update": args.linear_update,
+               "angular_update": args.angular_update}
+    data.update({k: v for k, v in options.items() if v is not None})
     if args.no_loop_closure:
-        overrides["loop_closure"] = dataclasses.replace(config.loop_closure, enabled=False)
-    return dataclasses.replace(config, **{k: v for k, v in overrides.items() if v is not None})
+        data["loop_closure"]["enabled"] = False
+    return RBPFConfig.from_dict(data)  # the options are checked like a config file's values
 
 
 def run(args) -> int:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from functools import lru_cache
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Literal
@@ -54,6 +53,9 @@ class Settings(BaseSettings):
     resume_session: str | None = None
 
     cors_origins: Annotated[list[str], NoDecode] = Field(default_factory=list)
+    #: The reverse proxy's addresses (comma-separated IPs or networks): only its ``X-Forwarded-Proto``
+    #: and ``X-Forwarded-For`` count (https: a ``Secure`` cookie; the client whose logins are limited).
+    forwarded_allow_ips: str = "127.0.0.1"
     max_body_bytes: int = Field(64 * 1024, ge=1024)
     token: str | None = Field(None, min_length=32)
 
@@ -184,4 +186,4 @@ class Settings(BaseSettings):
 def _slam_from(path: Path | None) -> RBPFConfig:
     from slam_core.rbpf.config import RBPFConfig
 
-    return RBPFConfig() if path is None else RBPFConfig.from_dict(json.loads(Path(path).read_text()))
+    return RBPFConfig() if path is None else RBPFConfig.from_file(path)

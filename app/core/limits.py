@@ -1,15 +1,11 @@
-"""Request hygiene as pure ASGI middleware: a body size limit (streamed bodies counted too, not just
-Content-Length) and JSON bodies (no Content-Type means JSON; another type is a 415)."""
+"""Request hygiene as pure ASGI middleware: a body size limit (chunked bodies too, whether or not
+the route reads them) and JSON bodies (no Content-Type means JSON; another type is a 415)."""
 
 from __future__ import annotations
 
 import json
 
 BODY_METHODS = (b"POST", b"PUT", b"PATCH")
-
-
-class BodyTooLarge(Exception):
-    pass
 
 
 async def send_error(send, status: int, detail: str, reason: str) -> None:
@@ -22,7 +18,12 @@ async def send_error(send, status: int, detail: str, reason: str) -> None:
 
 
 class BodySizeLimit:
-    """Answer 413 to any HTTP request whose body exceeds ``max_bytes``, declared or streamed."""
+    """Answer 413 to any HTTP request whose body exceeds ``max_bytes``, declared or streamed.
+
+    A declared ``Content-Length`` is checked up front (the server enforces it); any other body
+    (chunked) is read before the app runs, at most ``max_bytes`` of it, and handed on whole, so a
+    route that never reads its body refuses an oversized one too.
+    """
 
     def __init__(self, app, max_bytes: int):
         self.app = app
@@ -31,39 +32,27 @@ class BodySizeLimit:
     async def __call__(self, scope, receive, send):
         if scope["type"] != "http":
             return await self.app(scope, receive, send)
-        for name, value in scope.get("headers", ()):
-            if name == b"content-length" and value.isdigit() and int(value) > self.max_bytes:
+        declared = dict(scope.get("headers", ())).get(b"content-length")
+        if declared is not None:
+            if declared.isdigit() and int(declared) > self.max_bytes:
                 return await self._reject(send)
-        seen = 0
-        exceeded = started = False
-
-        async def limited_receive():
-            nonlocal seen, exceeded
+            return await self.app(scope, receive, send)
+        body = bytearray()
+        while True:
             message = await receive()
-            if message["type"] == "http.request":
-                seen += len(message.get("body", b""))
-                if seen > self.max_bytes:
-                    exceeded = True
-                    raise BodyTooLarge
-            return message
+            if message["type"] != "http.request":  # the client went away
+                return None
+            body += message.get("body", b"")
+            if len(body) > self.max_bytes:
+                return await self._reject(send)
+            if not message.get("more_body", False):
+                break
+        whole = [{"type": "http.request", "body": bytes(body), "more_body": False}]
 
-        async def tracking_send(message):
-            # The app may turn the aborted read into its own error answer: send the 413 instead.
-            nonlocal started
-            if exceeded:
-                if message["type"] == "http.response.start" and not started:
-                    started = True
-                    await self._reject(send)
-                return
-            if message["type"] == "http.response.start":
-                started = True
-            await send(message)
+        async def replay():
+            return whole.pop() if whole else await receive()
 
-        try:
-            await self.app(scope, limited_receive, tracking_send)
-        except BodyTooLarge:
-            if not started:
-                await self._reject(send)
+        await self.app(scope, replay, send)
 
     async def _reject(self, send) -> None:
         await send_error(send, 413, f"request body larger than {self.max_bytes} bytes", "body_too_large")

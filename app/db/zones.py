@@ -16,6 +16,8 @@ CREATE TABLE IF NOT EXISTS zones (
 );
 CREATE INDEX IF NOT EXISTS zones_by_map ON zones (map);
 """
+#: The largest id SQLite can hold; a larger one names no zone (and must not reach SQLite: OverflowError).
+MAX_ID = 2**63 - 1
 
 
 @dataclass(frozen=True)
@@ -60,6 +62,8 @@ class ZoneStore:
         return ZoneRecord(int(cur.lastrowid), kind, points)
 
     def delete(self, key: str, zone_id: int) -> bool:
+        if not 0 < zone_id <= MAX_ID:
+            return False
         db = self._connect()
         try:
             with db:

@@ -36,11 +36,13 @@ class LoggedOdometry:
 
 
 def read_laser_records(path: Path) -> tuple[list[LaserRecord], list[str]]:
-    """Every laser record of a log and the warnings (a truncated last line is one)."""
+    """Every laser record of a log and the warnings (a truncated end is one, unless it left no record)."""
     records: list[LaserRecord] = []
     try:
         records.extend(laser_records(path))
     except TruncatedLogError as exc:
+        if not records:
+            raise ValueError(f"{exc}; no laser records before it") from None
         return records, [str(exc)]
     if not records:
         raise ValueError(f"{path}: no laser records")

@@ -214,7 +214,7 @@ class MqttBridge:
                 place = await asyncio.to_thread(self.runtime.store.get_place, command.name)
             except NotFound as exc:
                 raise cmd.CommandError(str(exc.args[0])) from None
-            return Goal(place.x, place.y, place.name)
+            return Goal(place.x, place.y, place.name, yaw=place.yaw)  # its heading too
         if isinstance(command, cmd.GoToDock):
             x, y = await asyncio.to_thread(self._dock)
             return Goal(x, y, DOCK)

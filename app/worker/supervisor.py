@@ -15,12 +15,14 @@ import logging
 import multiprocessing as mp
 import os
 import queue
+import re
 import signal
 import threading
 import time
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -46,6 +48,16 @@ HISTORY_KEPT = 20
 CRASH_LOOP_FAILURES = 2
 #: What the fork server imports once, so that every worker forked from it starts with it.
 WORKER_MODULE = "app.worker.process"
+
+
+def without_data_dir(text: str, data_dir: Path) -> str:
+    """``text`` with the server's data folder written as ``DATA``: events and errors reach clients
+    (status, stream, health, 409s), server paths must not."""
+    text = text.replace(str(data_dir.resolve()), "DATA")
+    if data_dir.is_absolute():
+        return text.replace(str(data_dir), "DATA")
+    # A relative data dir: only where it starts a path (``data/maps/x``, not ``metadata/``).
+    return re.sub(rf"(?<![\w./-]){re.escape(str(data_dir))}(?=/)", "DATA", text)
 
 
 def restart_delay(base_s: float, failures: int, cap_s: float = RESTART_DELAY_CAP_S) -> float:
@@ -197,6 +209,10 @@ class WorkerSupervisor:
         if not accepted(message, WorkerMessage, "supervisor"):
             return
         event = message.name if isinstance(message, WorkerEvent) else None
+        if event is not None:
+            message = WorkerEvent(message.name, message.t, {
+                k: without_data_dir(v, self.settings.data_dir) if isinstance(v, str) else v
+                for k, v in message.fields.items()})
         if event in ("crashed", "error"):
             self.health.last_error = message.fields.get("detail")
         elif event == "started":

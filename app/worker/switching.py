@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import asyncio
 import time
-from pathlib import Path
 from typing import TYPE_CHECKING
 
 from app.worker.estimators import available_modes
@@ -31,13 +30,6 @@ class SwitchRefused(Exception):
     def __init__(self, status: int, reason: str, message: str):
         super().__init__(message)
         self.status, self.reason = status, reason
-
-
-def _without_data_dir(text: str, data_dir: Path) -> str:
-    """The worker's message with the server's data folder written as ``DATA``."""
-    for prefix in (str(data_dir.resolve()), str(data_dir)):
-        text = text.replace(prefix, "DATA")
-    return text
 
 
 def _events_after(runtime: Runtime, marker: dict | None) -> list[dict]:
@@ -64,8 +56,7 @@ async def send_and_wait(runtime: Runtime, command: Command, refused: str = "mode
         if event["event"] == "changed":
             return True
         if event["event"] == "error":
-            raise SwitchRefused(409, refused, _without_data_dir(str(event.get("detail")),
-                                                                runtime.settings.data_dir))
+            raise SwitchRefused(409, refused, str(event.get("detail")))  # paths as DATA/... (supervisor)
         raise SwitchRefused(503, "worker_restarting",
                             "the worker stopped while switching; it restarts from its checkpoint")
     return False

@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+import json
+import math
+import typing
+from dataclasses import asdict, dataclass, field, fields, is_dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -114,10 +118,53 @@ class RBPFConfig:
 
     @classmethod
     def from_dict(cls, data: dict) -> RBPFConfig:
-        data = dict(data)
-        parts = {"motion": OdometryMotionModel, "sensor": SensorModel, "matcher": MatcherParams,
-                 "loop_closure": LoopClosureConfig}
-        for key, kind in parts.items():
-            if key in data and isinstance(data[key], dict):
-                data[key] = kind(**data[key])
-        return cls(**data)
+        """The config of ``to_dict``'s shape (keys left out keep their defaults); ``ValueError``
+        naming the key for an unknown key, a wrong type, or a number out of bounds."""
+        config = _checked(cls, data, "")
+        if config.particles < 1 or not MIN_RESOLUTION <= config.resolution <= MAX_RESOLUTION:
+            raise ValueError(f"need particles >= 1 and resolution in {MIN_RESOLUTION:g}.."
+                             f"{MAX_RESOLUTION:g} m, got {config.particles} and {config.resolution:g}")
+        return config
+
+    @classmethod
+    def from_file(cls, path) -> RBPFConfig:
+        """A ``config.json`` as ``homebot slam`` writes it; ``ValueError`` naming the file."""
+        try:
+            return cls.from_dict(json.loads(Path(path).read_bytes().decode("utf-8")))
+        except (UnicodeDecodeError, json.JSONDecodeError, ValueError) as exc:
+            raise ValueError(f"{path}: not a SLAM config ({exc})") from None
+
+
+#: Bounds of the settings' numbers: none is negative, none larger than these.
+MAX_SETTING_INT = 100_000
+MAX_SETTING_FLOAT = 1e4
+MIN_RESOLUTION, MAX_RESOLUTION = 0.005, 1.0
+
+
+def _checked(kind: type, data, prefix: str):
+    """An instance of the settings dataclass ``kind`` from ``data``, every value checked."""
+    if not isinstance(data, dict):
+        raise ValueError(f"{prefix.rstrip('.') or 'the config'} must be a JSON object")
+    hints = typing.get_type_hints(kind)
+    names = {f.name for f in fields(kind)}
+    unknown = sorted(set(data) - names, key=str)
+    if unknown:
+        raise ValueError(f"unknown key {prefix}{unknown[0]}")
+    values = {}
+    for name, value in data.items():
+        key, expected = prefix + name, hints[name]
+        if is_dataclass(expected):
+            values[name] = _checked(expected, value, key + ".")
+        elif expected is bool:
+            if not isinstance(value, bool):
+                raise ValueError(f"{key} must be true or false, got {value!r}")
+            values[name] = value
+        else:
+            integral = expected is int
+            if isinstance(value, bool) or not isinstance(value, int if integral else int | float):
+                raise ValueError(f"{key} must be {'an integer' if integral else 'a number'}, got {value!r}")
+            limit = MAX_SETTING_INT if integral else MAX_SETTING_FLOAT
+            if not (math.isfinite(value) and 0 <= value <= limit):
+                raise ValueError(f"{key} must be a number in 0..{limit:g}, got {value!r}")
+            values[name] = expected(value)
+    return kind(**values)

@@ -13,6 +13,9 @@ import numpy as np
 
 from slam_core.geometry import compose, inverse
 
+#: The farthest a laser may sit from the robot's centre (m); a mount beyond it is a mistake.
+MAX_OFFSET_M = 10.0
+
 
 @dataclass(frozen=True)
 class LaserMount:
@@ -25,6 +28,9 @@ class LaserMount:
     def __post_init__(self):
         if not np.isfinite([self.x, self.y, self.theta]).all():
             raise ValueError(f"laser mount must be finite, got {self.as_tuple()}")
+        if max(abs(self.x), abs(self.y)) > MAX_OFFSET_M:
+            raise ValueError(f"laser mount ({self.x:g}, {self.y:g}) is more than {MAX_OFFSET_M:g} m "
+                             "from the robot's centre")
 
     @classmethod
     def of(cls, value) -> LaserMount:

@@ -50,6 +50,8 @@ TABLE_LEG_INSET = 0.05
 DOOR_TOLERANCE = 1e-6
 #: Wall pieces shorter than this left over after cutting doors are dropped.
 MIN_WALL_PIECE = 1e-6
+#: No number of a world file is larger (metres or degrees): a home is not 10 km wide.
+MAX_NUMBER = 1e4
 
 
 #: The statements of the format, each handled by ``_Parser._<statement>``.
@@ -165,6 +167,7 @@ class _Parser:
         self.ceiling = DEFAULT_CEILING
         self.ceiling_line = 0
         self.start = None
+        self.start_line = 0
         self.walls: list[tuple[float, float, float, float]] = []
         self.doors: list[tuple[int, tuple[float, float, float, float]]] = []
         self.furniture: list[Furniture] = []
@@ -191,6 +194,8 @@ class _Parser:
                 raise self.error(f"{what}: {f!r} is not a number") from None
             if not math.isfinite(v):
                 raise self.error(f"{what}: {f!r} is not a finite number")
+            if abs(v) > MAX_NUMBER:
+                raise self.error(f"{what}: {f} is beyond ±{MAX_NUMBER:g} (metres or degrees)")
             values.append(v)
         return values
 
@@ -209,6 +214,10 @@ class _Parser:
             raise self.error("no 'start x y theta_degrees' line")
         if not self.walls:
             raise self.error("no walls")
+        ends = np.array(self.walls).reshape(-1, 2)
+        if not ((ends.min(axis=0) <= self.start[:2]) & (self.start[:2] <= ends.max(axis=0))).all():
+            raise WorldFormatError(self.source, self.start_line,
+                                   f"start ({self.start[0]:g}, {self.start[1]:g}) lies outside the walls")
         walls = self._cut_doors()
         return self._build(walls)
 
@@ -227,6 +236,7 @@ class _Parser:
     def _start(self, args):
         x, y, deg = self.numbers(args, "start (x y theta_degrees)", count=3)
         self.start = np.array([x, y, math.atan2(math.sin(math.radians(deg)), math.cos(math.radians(deg)))])
+        self.start_line = self.line
 
     def _wall(self, args):
         pts = self.numbers(args, "wall", minimum=4, even=True)

@@ -8,6 +8,7 @@ import logging
 from fastapi import APIRouter, WebSocket, WebSocketDisconnect
 from pydantic import ValidationError
 
+from app.api.errors import validation_detail
 from app.api.models import GoalBody, TeleopBody
 from app.core.security import COOKIE_NAME, origin_allowed, token_matches
 from app.db.store import NotFound
@@ -57,9 +58,14 @@ async def _handle(runtime: Runtime, client, text: str) -> None:
             await runtime.navigator.set_goal(goal)
         else:
             raise ValueError(f"unknown message type {kind!r}")
-    except (ValueError, ValidationError, NotFound, PlanningError, TypeError) as exc:
-        reason = getattr(exc, "reason", None)
-        reply("error", {"detail": str(exc), "reason": reason})
+    except ValidationError as exc:
+        reply("error", {"detail": validation_detail(exc), "reason": "invalid_request"})
+    except NotFound as exc:
+        reply("error", {"detail": str(exc.args[0]), "reason": "not_found"})
+    except PlanningError as exc:
+        reply("error", {"detail": str(exc), "reason": exc.reason})
+    except (ValueError, TypeError) as exc:
+        reply("error", {"detail": str(exc), "reason": "invalid_request"})
 
 
 @router.websocket("/ws")

@@ -10,6 +10,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from app.api.deps import RuntimeDep
 from app.api.models import Coordinate
+from app.db.zones import MAX_ID
 from app.zones.service import ZoneError, replan_for_zones
 
 router = APIRouter(prefix="/zones", tags=["zones"])
@@ -47,7 +48,7 @@ async def create_zone(body: ZoneBody, runtime: RuntimeDep) -> dict:
 
 
 @router.delete("/{zone_id:int}", status_code=status.HTTP_204_NO_CONTENT, response_class=Response)
-async def delete_zone(runtime: RuntimeDep, zone_id: int = Path(ge=1)) -> Response:
+async def delete_zone(runtime: RuntimeDep, zone_id: int = Path(ge=1, le=MAX_ID)) -> Response:
     """Remove a zone or wall."""
     try:
         await asyncio.to_thread(runtime.zones.delete, zone_id)
