@@ -175,8 +175,13 @@ def test_an_unsent_map_delta_turns_into_a_full_frame():
     assert client.slots["map"] == b"d4"
 
 
-@pytest.mark.parametrize("name", ["kitchen", "Living room 2", "map_1-v2", "a-b", "Küche", "é", "客厅",
-                                  "Спальня"])
+GOOD_NAMES = ["kitchen", "Living room 2", "map_1-v2", "a-b", "Küche", "é", "客厅", "Спальня", "kitchen #2",
+              "Kid's room", "(spare)"]
+BAD_NAMES = ["", ".hidden", "../x", "a/b", "a\\b", "x" * 65, "..", "a..b", "tab\t", "home.bak", "v1.2",
+             "x.png", " lead", "trail ", "nl\n", "a\x00b", "a:b", "a*b", "why?", 'say "hi"', "<b>", "a|b"]
+
+
+@pytest.mark.parametrize("name", GOOD_NAMES)
 def test_good_names(name):
     assert check_name(name) == name
 
@@ -185,8 +190,7 @@ def test_names_compare_in_nfc_form():
     assert check_name("Ku\u0308che") == "K\u00fcche"
 
 
-@pytest.mark.parametrize("name", ["", ".hidden", "../x", "a/b", "a\\b", "x" * 65, "..", "a..b", "tab\t",
-                                  "home.bak", "v1.2", "x.png", " lead", "trail ", "nl\n", "a\x00b"])
+@pytest.mark.parametrize("name", [*BAD_NAMES, "x\ud800"])
 def test_bad_names_are_refused(name):
     with pytest.raises(ValueError, match="bad"):
         check_name(name)

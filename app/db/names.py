@@ -1,8 +1,13 @@
 """Names users give places and maps: any script's letters, safe as file names, no path traversal.
 
-A name is 1-64 characters: letters of any script, digits, ``_``, ``-`` and inner spaces. No dots
-(a dot would change a map file's suffix: ``home.bak`` must never touch ``home``), no path
-separators, no control characters. Names are compared in Unicode NFC form.
+A name is 1-64 characters of any script: letters, digits, spaces and punctuation, except a dot
+(a dot would change a map file's suffix: ``home.bak`` must never touch ``home``), path separators,
+the characters file systems refuse (``: * ? " < > |``) and control characters; no space at either
+end. Names are compared in Unicode NFC form.
+
+The rule is written as one regular expression that Python's ``re`` and ECMAScript's ``RegExp``
+(JSON Schema's dialect: the OpenAPI schema, Swagger UI's "Try it out") read alike: the characters
+left out are listed, so no engine's idea of a "word character" enters into it.
 """
 
 from __future__ import annotations
@@ -11,9 +16,13 @@ import re
 import unicodedata
 
 MAX_NAME_LENGTH = 64
-#: The rule as a regular expression (Python ``re``; ``\\w`` is any script's letters, digits and ``_``).
-NAME_REGEX = r"^\w(?:[\w \-]{0,62}[\w\-])?$"
-NAME_RULE = ("1-64 letters (any script), digits, '_', '-' and spaces; no dots, no slashes, "
+#: What a name never holds: dots, path separators, what file systems refuse, control characters
+#: and UTF-16 surrogates (a lone one cannot be written to a file name).
+_LEFT_OUT = r'/\\.:*?"<>|\x00-\x1f\x7f\ud800-\udfff'
+#: The rule as a regular expression, read alike by Python ``re`` and ECMAScript ``RegExp``.
+NAME_REGEX = rf"^[^\s{_LEFT_OUT}](?:[^{_LEFT_OUT}]{{0,62}}[^\s{_LEFT_OUT}])?$"
+NAME_RULE = ("1-64 characters of any script (letters, digits, spaces, punctuation) except "
+             "'.', '/', '\\', ':', '*', '?', '\"', '<', '>', '|' and control characters; "
              "no space at either end")
 _NAME = re.compile(NAME_REGEX)
 
