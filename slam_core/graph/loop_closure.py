@@ -255,11 +255,16 @@ def close_loops(poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig 
                     edges[(int(submaps.anchors[s]), q)] = (z, info)
         return solve(estimate)
 
+    settled: list[set] = []  # the edges of the last solve, if it dropped none
+
     def solve(estimate: np.ndarray):
+        if settled and settled[0] == edges.keys():
+            return estimate  # the same graph (it depends on nothing else): the same optimum, no drop
         estimate, dropped = robust_solve(poses, chain, edges, config.outlier_chi2)
         for key in dropped:
             del edges[key]
         result.rejected_edges += len(dropped)
+        settled[:] = [] if dropped else [set(edges)]
         return estimate
 
     if edges:
