@@ -61,6 +61,7 @@ async def _watch(port: int, proc: subprocess.Popen) -> tuple[list[dict], dict[st
                     refused["goal"] = await http.post("/api/goal", json={"x": 1.0, "y": 0.0})
                     refused["teleop"] = await http.post("/api/teleop", json={"v": 0.1, "w": 0.0})
                     refused["tour"] = await http.post("/api/tour")
+                    refused["map load"] = await http.post("/api/maps/home/load")
     return messages, refused
 
 
@@ -127,8 +128,8 @@ def test_the_stream_carries_the_replayed_poses_and_the_status_says_replay(replay
     assert not any(s["sim"] for s in statuses)
 
 
-def test_goals_teleop_and_the_tour_are_refused_with_a_reason(replay):
-    for name in ("goal", "teleop", "tour"):
+def test_goals_teleop_the_tour_and_loading_a_map_are_refused_with_a_reason(replay):
+    for name in ("goal", "teleop", "tour", "map load"):
         response = replay.refused[name]
         assert response.status_code == 409, (name, response.text)
         assert "replaying the log" in response.json()["detail"]

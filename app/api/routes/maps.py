@@ -9,6 +9,7 @@ from app.api import path_names  # noqa: F401  (registers {name:name})
 from app.api.deps import RuntimeDep, SettingsDep, StoreDep
 from app.api.errors import ApiError
 from app.api.models import MapBody, MapName, SavedMap, Status
+from app.api.replay_guard import NotReplaying
 from app.api.routes.map import png_bytes
 from app.api.routes.mode import switch_mode
 from app.api.saved_maps import MAP_SUFFIXES, checked_map_file, load_saved_map, map_file, map_record
@@ -49,7 +50,7 @@ async def create_map(body: MapBody, runtime: RuntimeDep, store: StoreDep, settin
     return record
 
 
-@router.post("/{name:name}/load", response_model=Status,
+@router.post("/{name:name}/load", response_model=Status, dependencies=[NotReplaying],
              responses={202: {"model": Status, "description": "the worker is still switching"}})
 async def create_map_load(runtime: RuntimeDep, store: StoreDep, response: Response,
                           name: MapNameParam) -> dict:
