@@ -52,6 +52,8 @@ DOOR_TOLERANCE = 1e-6
 MIN_WALL_PIECE = 1e-6
 #: No number of a world file is larger (metres or degrees): a home is not 10 km wide.
 MAX_NUMBER = 1e4
+#: How far beyond the walls' extent the start may lie (m): a robot there still sees them.
+START_REACH = 30.0
 
 
 #: The statements of the format, each handled by ``_Parser._<statement>``.
@@ -215,9 +217,11 @@ class _Parser:
         if not self.walls:
             raise self.error("no walls")
         ends = np.array(self.walls).reshape(-1, 2)
-        if not ((ends.min(axis=0) <= self.start[:2]) & (self.start[:2] <= ends.max(axis=0))).all():
+        low, high = ends.min(axis=0) - START_REACH, ends.max(axis=0) + START_REACH
+        if not ((low <= self.start[:2]) & (self.start[:2] <= high)).all():
             raise WorldFormatError(self.source, self.start_line,
-                                   f"start ({self.start[0]:g}, {self.start[1]:g}) lies outside the walls")
+                                   f"start ({self.start[0]:g}, {self.start[1]:g}) lies outside the walls "
+                                   f"(more than {START_REACH:g} m beyond them)")
         walls = self._cut_doors()
         return self._build(walls)
 
