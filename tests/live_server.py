@@ -42,8 +42,9 @@ def free_port() -> int:
 
 
 class LiveServer:
-    def __init__(self, data_dir: Path, world: str = "flat", env: dict | None = None):
+    def __init__(self, data_dir: Path, world: str = "flat", env: dict | None = None, own_group: bool = False):
         self.data_dir = Path(data_dir)
+        self.own_group = own_group  # its own process group, as a service manager starts it
         self.world = world
         self.env = env or {}
         self.port = 0
@@ -73,7 +74,8 @@ class LiveServer:
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "app.cli", "serve", "--port", str(self.port), "--data", str(self.data_dir),
              "--world", self.world, *args],
-            cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+            cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+            start_new_session=self.own_group)
         return self
 
     def start(self, *args: str) -> LiveServer:

@@ -101,6 +101,22 @@ def test_no_child_outlives_a_killed_server(tmp_path):
     server.stop()
 
 
+def test_a_stop_signal_to_every_process_of_the_service_saves_the_map_and_ends_them_all(tmp_path):
+    """As systemd stops a service: SIGTERM to the server, its worker, the worker's fork server and
+    the simulator at once. The worker saves its map, nothing is restarted, nothing is left."""
+    server = LiveServer(tmp_path / "data", env={"HOMEBOT_SIM_TOUR": "1"}, own_group=True).start()
+    children = descendants(server.proc.pid)
+    signalled = time.time()
+    os.killpg(server.proc.pid, signal.SIGTERM)
+    server.proc.wait(20)
+    output = server.proc.stdout.read()
+    assert "Traceback" not in output and "leaked" not in output, output
+    assert (tmp_path / "data" / "last_map.pgm").stat().st_mtime >= signalled, output
+    time.sleep(1.0)
+    assert [pid for pid in children if running(pid)] == []
+    server.stop()
+
+
 def test_a_crash_looping_worker_backs_off_degrades_health_and_leaks_nothing(tmp_path):
     """A real-robot server whose scan source cannot load: the worker dies at every start."""
     env = {"HOMEBOT_SENSOR_SOURCE": "no_such_module:scans", "HOMEBOT_SERIAL_PORT": str(tmp_path / "no-tty"),

@@ -46,8 +46,11 @@ RESTART_DELAY_CAP_S = 30.0
 HISTORY_KEPT = 20
 #: Failures in a row (workers that died before they were healthy) that make a crash loop.
 CRASH_LOOP_FAILURES = 2
-#: What the fork server imports once, so that every worker forked from it starts with it.
-WORKER_MODULE = "app.worker.process"
+#: The wait before replacing a worker that stopped cleanly without being told to by the supervisor (s).
+CLEAN_EXIT_GRACE_S = 2.0
+#: What the fork server imports once, so that every worker forked from it starts with it; the
+#: first module makes the fork server itself ignore SIGTERM (see it).
+FORK_SERVER_PRELOAD = ["app.worker.fork_server", "app.worker.process"]
 
 
 def without_data_dir(text: str, data_dir: Path) -> str:
@@ -105,7 +108,7 @@ class WorkerSupervisor:
         self.initial_pose = tuple(float(v) for v in initial_pose)
         self.correction = correction  # the newest map -> odom, handed to a restarted worker
         self.ctx = mp.get_context("forkserver")
-        self.ctx.set_forkserver_preload([WORKER_MODULE])
+        self.ctx.set_forkserver_preload(FORK_SERVER_PRELOAD)
         self.shared_map = SharedMap(settings.map_capacity_cells, settings.tile_size, create=True)
         self.health = WorkerHealth()
         self._lock = threading.Lock()
@@ -258,9 +261,13 @@ class WorkerSupervisor:
         self.health.history.append({"time": time.time(), "exit_code": code, "healthy": self.health.healthy})
         if self._resumed and not self.health.healthy:
             self._blame_checkpoint()
-        # A worker that was healthy is replaced at once; failures in a row back off.
+        # A worker that was healthy is replaced at once; failures in a row back off. One that was
+        # asked to stop (exit code 0) and not by us is given time for the server's own stop to come
+        # (a service manager signals every process of the service at once).
         delay = 0.0 if self.health.healthy else restart_delay(self.settings.worker_restart_delay_s,
                                                               self.health.failures)
+        if code == 0:
+            delay = max(delay, CLEAN_EXIT_GRACE_S)
         log.warning("worker exited (code %s); restarting from the last checkpoint in %.1f s", code, delay)
         self._stopping.wait(delay)
         if not self._stopping.is_set():
