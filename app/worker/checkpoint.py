@@ -5,10 +5,7 @@ per-cell hit sums (the mean beam endpoints the scan matcher aligns to), origin a
 resolution, with the pose, mode and encoder counts at that moment. It is written to a temp
 file, fsynced and renamed, so a crash leaves either the old or the new snapshot, never half
 of one. The newest :data:`GENERATIONS_KEPT` are kept. Between snapshots the pose is saved,
-just as atomically, to ``pose.json`` with the generation it belongs to. While the
-loop-closing back end runs, each snapshot has the mapping session beside it
-(``session-000042.session.npz``, :mod:`slam_core.session`, written first), so a restarted
-worker closes loops against everything mapped before.
+just as atomically, to ``pose.json`` with the generation it belongs to.
 
 A snapshot that fails to load, or that the supervisor blames for a crash loop
 (:func:`quarantine_newest`), is renamed ``map-000042.bad-20260101T120000.npz`` (kept for
@@ -24,7 +21,7 @@ import re
 import time
 import zipfile
 import zlib
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -34,7 +31,6 @@ from app.worker.shared_map import MAX_SIDE
 from slam_core.io.render import save_png
 from slam_core.io.ros_map import save_map
 from slam_core.occupancy_grid import OccupancyGrid
-from slam_core.session import SUFFIX, SessionError, load_session, save_session
 
 POSE_FILE = "pose.json"
 GENERATIONS_KEPT = 3
@@ -62,10 +58,6 @@ def generations(directory: Path) -> list[int]:
 
 def snapshot_path(directory: Path, generation: int) -> Path:
     return Path(directory) / f"map-{generation:06d}.npz"
-
-
-def session_path(directory: Path, generation: int) -> Path:
-    return Path(directory) / f"session-{generation:06d}{SUFFIX}"
 
 
 def write_atomically(path: Path, write) -> None:
@@ -103,12 +95,9 @@ def save_snapshot(directory: Path, checkpoint: Checkpoint) -> int:
                       resolution=np.array(grid.resolution))
         if checkpoint.hit_sums is not None:
             arrays["hit_sums"] = checkpoint.hit_sums.astype(np.float32)
-    if checkpoint.session is not None:
-        save_session(checkpoint.session, session_path(directory, generation))
     write_atomically(snapshot_path(directory, generation), lambda f: np.savez_compressed(f, **arrays))
     for old in existing[:max(0, len(existing) + 1 - GENERATIONS_KEPT)]:
         snapshot_path(directory, old).unlink(missing_ok=True)
-        session_path(directory, old).unlink(missing_ok=True)
     return generation
 
 
@@ -118,9 +107,8 @@ def save_pose(directory: Path, checkpoint: Checkpoint, generation: int) -> None:
     write_atomically(Path(directory) / POSE_FILE, lambda f: f.write(text))
 
 
-def read_snapshot(path: Path, max_cells: int, session: Path | None = None) -> Checkpoint:
-    """One snapshot (with its mapping ``session`` file, if that exists), checked;
-    :class:`BadCheckpoint` says why it cannot be used."""
+def read_snapshot(path: Path, max_cells: int) -> Checkpoint:
+    """One snapshot, checked; :class:`BadCheckpoint` says why it cannot be used."""
     try:
         with np.load(path, allow_pickle=False) as z:
             state = json.loads(str(z["state"]))
@@ -131,11 +119,6 @@ def read_snapshot(path: Path, max_cells: int, session: Path | None = None) -> Ch
         checkpoint = _checkpoint(state, grid, hits)
     except (OSError, ValueError, KeyError, TypeError, EOFError, zipfile.BadZipFile, zlib.error) as exc:
         raise BadCheckpoint(f"unreadable: {type(exc).__name__}: {exc}") from None
-    if session is not None and session.exists():
-        try:
-            checkpoint = replace(checkpoint, session=load_session(session))
-        except SessionError as exc:
-            raise BadCheckpoint(f"its mapping session: {exc}") from None
     if grid is not None:
         if grid.data.ndim != 2 or grid.data.size > max_cells or max(grid.data.shape) > MAX_SIDE:
             raise BadCheckpoint(f"map of shape {grid.data.shape} exceeds the limit of {max_cells} cells "
@@ -161,28 +144,22 @@ def load_checkpoint(directory: Path, max_cells: int) -> Restored:
     for generation in reversed(generations(directory)):
         path = snapshot_path(directory, generation)
         try:
-            checkpoint = read_snapshot(path, max_cells, session_path(directory, generation))
+            checkpoint = read_snapshot(path, max_cells)
         except BadCheckpoint as exc:
-            restored.quarantined.append((quarantine(directory, generation), str(exc)))
+            restored.quarantined.append((quarantine(path), str(exc)))
             continue
         with contextlib.suppress(OSError, ValueError, KeyError, TypeError, IndexError):
             state = json.loads((directory / POSE_FILE).read_text())
             if state.get("generation") == generation:
-                checkpoint = replace(_checkpoint(state, checkpoint.grid, checkpoint.hit_sums),
-                                     session=checkpoint.session)
+                checkpoint = _checkpoint(state, checkpoint.grid, checkpoint.hit_sums)
         restored.checkpoint, restored.generation = checkpoint, generation
         return restored
     return restored
 
 
-def quarantine(directory: Path, generation: int) -> Path:
-    """Rename a snapshot (and its session) aside, with the time in the name, so it is kept but never
-    loaded again; the snapshot's new path."""
+def quarantine(path: Path) -> Path:
+    """Rename a snapshot aside, with the time in its name, so it is kept but never loaded again."""
     stamp = time.strftime("%Y%m%dT%H%M%S", time.gmtime())
-    session = session_path(directory, generation)
-    if session.exists():
-        os.replace(session, session.with_name(f"{session.name.removesuffix(SUFFIX)}.bad-{stamp}{SUFFIX}"))
-    path = snapshot_path(directory, generation)
     target = path.with_name(f"{path.stem}.bad-{stamp}{path.suffix}")
     os.replace(path, target)
     return target
@@ -191,7 +168,7 @@ def quarantine(directory: Path, generation: int) -> Path:
 def quarantine_newest(directory: Path) -> Path | None:
     """Set the newest snapshot aside (the supervisor blames it for a crash loop); its new path."""
     found = generations(directory)
-    return quarantine(directory, found[-1]) if found else None
+    return quarantine(snapshot_path(directory, found[-1])) if found else None
 
 
 def save_exit_map(grid: OccupancyGrid, stem: Path, trajectory=None) -> list[Path]:
