@@ -174,8 +174,23 @@ def test_the_map_grows_as_the_robot_moves(server):
     assert grown > 2000, (grown, server.status()["nav"])
 
 
+def drive(c, goal: tuple[float, float], explore: bool, timeout: float) -> dict:
+    """Send a goal and wait until the navigator arrives or gives up: the last status."""
+    r = c.post("/api/goal", json={"x": goal[0], "y": goal[1], "explore": explore})
+    assert r.status_code == 202, r.text
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        status = c.get("/api/status").json()
+        if status["nav"]["state"] in ("arrived", "failed"):
+            break
+        time.sleep(0.5)
+    return status
+
+
 def test_switch_to_localization_on_a_saved_map_and_back(server):
     with server.client() as c:
+        # the hall mapped from the start (1.0, 3.75) to here, so that the way back lies in the saved map
+        assert drive(c, (5.4, 3.75), explore=True, timeout=90)["nav"]["state"] == "arrived"
         assert c.post("/api/maps", json={"name": "flat"}).status_code == 201
         assert c.put("/api/mode", json={"mode": "localization", "map": "nope"}).status_code == 404
         r = c.post("/api/maps/flat/load")
@@ -187,11 +202,7 @@ def test_switch_to_localization_on_a_saved_map_and_back(server):
                 break
             time.sleep(0.5)
         assert status["mode"] == "localization", status["events"]
-        assert c.post("/api/goal", json={"x": 5.4, "y": 3.75}).status_code == 202
-        deadline = time.monotonic() + 60
-        while time.monotonic() < deadline and c.get("/api/path").json()["state"] == "driving":
-            time.sleep(0.5)
-        status = c.get("/api/status").json()
+        status = drive(c, (1.0, 3.75), explore=False, timeout=60)
         assert status["mode"] == "localization" and status["nav"]["state"] == "arrived", status["nav"]
         pose, true = status["pose"], status["true_pose"]
         assert math.hypot(pose["x"] - true[0], pose["y"] - true[1]) < 0.5, (pose, true)

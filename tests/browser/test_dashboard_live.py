@@ -1,8 +1,9 @@
 """The dashboard in Debian's chromium against a real homebot server in simulation mode.
 
-The tests run in order on one logged-in page: log in, watch the map grow, click a goal, see the
-path drawn and the robot's marker move toward it, drive by hand, take the screenshot, survive a
-server restart. Checks read the canvas pixels the user sees, not only the page's state.
+Most tests share one page, signed in by its fixture: watch the map grow, click a goal, see the path
+drawn and the robot's marker move toward it, drive by hand, take the screenshot, survive a server
+restart. Each also passes alone. Checks read the canvas pixels the user sees, not only the page's
+state.
 """
 
 from __future__ import annotations
@@ -84,39 +85,51 @@ def canvas_origin(page) -> tuple[float, float]:
     return box["x"], box["y"]
 
 
+def sign_in(page, token: str) -> None:
+    """Through the login form, until the stream is online with a map."""
+    page.fill("#token-input", token)
+    page.click("#login-button")
+    page.wait_for_selector("#app", state="visible")
+    page.wait_for_function("window.homebot.state.online && window.homebot.state.map.ready",
+                           timeout=STREAM_TIMEOUT_MS)
+
+
 @pytest.fixture(scope="module")
 def dashboard(browser, homebot_server):
-    """One logged-in dashboard page for the tests of this module, in order."""
+    """One signed-in dashboard page for the tests of this module."""
     context = browser.new_context(viewport={"width": 1280, "height": 800})
     page = context.new_page()
     errors: list[str] = []
     page.on("pageerror", lambda exc: errors.append(str(exc)))
     page.js_errors = errors
     page.goto(homebot_server.url)
+    page.wait_for_selector("#login", state="visible")
+    sign_in(page, homebot_server.token)
     yield page
     context.close()
 
 
-def test_login_form_rejects_a_wrong_token_then_signs_in(dashboard, homebot_server):
-    page = dashboard
-    page.wait_for_selector("#login", state="visible")
-    assert page.locator("#app").is_hidden(), "nothing of the robot is shown before login"
-    page.fill("#token-input", "not-the-token-at-all")
-    page.click("#login-button")
-    page.wait_for_function("document.getElementById('login-error').textContent.length > 0")
-    assert "not right" in page.locator("#login-error").inner_text()
+def test_login_form_rejects_a_wrong_token_then_signs_in(browser, homebot_server):
+    context = browser.new_context(viewport={"width": 1280, "height": 800})
+    page = context.new_page()
+    try:
+        page.goto(homebot_server.url)
+        page.wait_for_selector("#login", state="visible")
+        assert page.locator("#app").is_hidden(), "nothing of the robot is shown before login"
+        page.fill("#token-input", "not-the-token-at-all")
+        page.click("#login-button")
+        page.wait_for_function("document.getElementById('login-error').textContent.length > 0")
+        assert "not right" in page.locator("#login-error").inner_text()
 
-    page.fill("#token-input", homebot_server.token)
-    page.click("#login-button")
-    page.wait_for_selector("#app", state="visible")
-    page.wait_for_function("window.homebot.state.online && window.homebot.state.map.ready",
-                           timeout=STREAM_TIMEOUT_MS)
-    assert page.locator("#st-conn").inner_text().strip() == "online"
-    assert page.locator("#offline-banner").is_hidden()
-    page.wait_for_function("window.homebot.state.status && window.homebot.state.pose",
-                           timeout=STREAM_TIMEOUT_MS)
-    assert page.locator("#st-mode").inner_text().startswith("Mapping")
-    assert "Hz" in page.locator("#st-rate").inner_text()
+        sign_in(page, homebot_server.token)
+        assert page.locator("#st-conn").inner_text().strip() == "online"
+        assert page.locator("#offline-banner").is_hidden()
+        page.wait_for_function("window.homebot.state.status && window.homebot.state.pose",
+                               timeout=STREAM_TIMEOUT_MS)
+        assert page.locator("#st-mode").inner_text().startswith("Mapping")
+        assert "Hz" in page.locator("#st-rate").inner_text()
+    finally:
+        context.close()
 
 
 def test_click_sends_a_goal_the_path_is_drawn_and_the_robot_drives_there(dashboard, homebot_server):
