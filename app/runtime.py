@@ -118,7 +118,7 @@ class Runtime:
         if ready is not None:
             await asyncio.to_thread(wait_ready, self.sim, ready)  # the simulated robot's pty exists now
         if not s.replay:
-            self.link = RobotLink(port, self.odometry_ring, s.serial_baud, s.robot_config().wheels).start()
+            self.link = RobotLink(port, self.odometry_ring, s.serial_baud, s.robot_config()).start()
         for coro in (self._stream_ticker(), self._map_pump(), self._status_ticker(), self.navigator.run(),
                      self.rooms.run()):
             self._tasks.append(asyncio.create_task(coro))

@@ -64,12 +64,22 @@ class RobotConfig:
     laser: LaserSpec
     limits: RobotLimits
 
+    @property
+    def max_wheel_speed(self) -> float:
+        """Wheel speed (m/s) above which an encoder reading is taken as corrupt: the fastest a wheel
+        turns within the limits (full speed and full turn rate at once), times :data:`WHEEL_SPEED_MARGIN`."""
+        fastest = self.limits.v_max + self.limits.w_max * self.wheels.wheel_base / 2.0
+        return WHEEL_SPEED_MARGIN * fastest
+
     def to_dict(self) -> dict:
         return dataclasses.asdict(self)
 
     def to_yaml(self) -> str:
         return yaml.safe_dump(self.to_dict(), sort_keys=False)
 
+
+#: An encoder reading that implies a wheel this many times faster than the limits allow is corrupt.
+WHEEL_SPEED_MARGIN = 2.0
 
 #: Keys whose value must be > 0; every other number must be >= 0 except the mount's.
 POSITIVE = {"footprint_radius", "wheels.wheel_radius", "wheels.wheel_base", "wheels.ticks_per_rev",

@@ -172,6 +172,7 @@ def test_a_live_server_drives_the_robot_file_and_publishes_its_true_pose(other_r
     server = LiveServer(tmp_path / "data", env={"HOMEBOT_ROBOT": str(other_robot)}).start()
     try:
         with server.client() as c:
+            assert c.get("/api/robot").json() == load_robot(other_robot).to_dict()  # what the dashboard draws
             r = c.post("/api/goal", json={"x": 3.2, "y": 1.8, "explore": True})  # hall -> kitchen
             assert r.status_code == 202, r.text
 

@@ -12,6 +12,7 @@ from app.api.routes import (
     mode,
     navigation,
     places,
+    robot,
     rooms,
     sessions,
     status,
@@ -22,7 +23,7 @@ from app.api.routes import (
 api_router = APIRouter(prefix="/api")
 api_router.include_router(health.router, responses=OPEN_ERROR_RESPONSES)
 api_router.include_router(login.router, responses=ERROR_RESPONSES)
-for module in (status, map, navigation, mode, places, maps, sessions, rooms, zones):
+for module in (status, robot, map, navigation, mode, places, maps, sessions, rooms, zones):
     api_router.include_router(module.router, dependencies=[Authorized], responses=ERROR_RESPONSES)
 
 ws_router = ws.router

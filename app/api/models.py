@@ -190,6 +190,43 @@ class SavedMap(BaseModel):
     resolution: float
 
 
+class RobotWheels(BaseModel):
+    wheel_radius: float
+    wheel_base: float
+    ticks_per_rev: int
+
+
+class LaserMountPose(BaseModel):
+    x: float
+    y: float
+    theta: float
+
+
+class RobotLaser(BaseModel):
+    mount: LaserMountPose
+    height: float
+    beams: int
+    range_min: float
+    range_max: float
+
+
+class RobotLimitsModel(BaseModel):
+    v_max: float
+    w_max: float
+    a_max: float
+    alpha_max: float
+
+
+class RobotDescription(BaseModel):
+    """The robot file in use (``homebot serve --robot``): metres, seconds, radians."""
+
+    name: str
+    footprint_radius: float
+    wheels: RobotWheels
+    laser: RobotLaser
+    limits: RobotLimitsModel
+
+
 class Status(BaseModel):
     mode: str
     mapping: bool

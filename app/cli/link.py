@@ -9,7 +9,7 @@ from pathlib import Path
 
 from app.cli.inputs import serial_device
 from app.cli.progress import fraction_bar
-from app.grabbers.odometry_grabber import DEFAULT_BAUDRATE, DEFAULT_MAX_WHEEL_SPEED, OdometryGrabber
+from app.grabbers.odometry_grabber import DEFAULT_BAUDRATE, OdometryGrabber
 
 POLL = 0.1  # s between progress updates
 
@@ -28,7 +28,9 @@ def register(sub) -> None:
     p.add_argument("--robot", type=Path, default=None, metavar="FILE",
                    help="the robot's description (YAML, see README); default: the simulated robot")
     p.add_argument(
-        "--max-wheel-speed", type=float, default=DEFAULT_MAX_WHEEL_SPEED, help="m/s (default %(default)s)"
+        "--max-wheel-speed", type=float, default=None,
+        help="m/s beyond which an encoder reading is corrupt (default: twice the fastest wheel the robot "
+             "file's limits allow)"
     )
     p.add_argument("--json", action="store_true", help="print the report as JSON")
     p.set_defaults(run=run)
@@ -39,8 +41,9 @@ def run(args) -> int:
         raise ValueError(f"--seconds must be positive, got {args.seconds}")
     from slam_core.robot_config import load_robot
 
-    geometry = load_robot(args.robot).wheels
-    grabber = OdometryGrabber(serial_device(args.port), args.baud, geometry, args.max_wheel_speed)
+    robot = load_robot(args.robot)
+    speed = robot.max_wheel_speed if args.max_wheel_speed is None else args.max_wheel_speed
+    grabber = OdometryGrabber(serial_device(args.port), args.baud, robot.wheels, speed)
     start = time.monotonic()
     with grabber, fraction_bar(f"listening on {args.port}") as progress:
         while (elapsed := time.monotonic() - start) < args.seconds:

@@ -37,8 +37,6 @@ from slam_core.sensors.wheel_odometry import DiffDriveGeometry, OdometryIntegrat
 log = logging.getLogger(__name__)
 
 DEFAULT_BAUDRATE = 115200
-#: Wheel speed (m/s) above which an encoder reading is taken as corrupt; well above any home robot's.
-DEFAULT_MAX_WHEEL_SPEED = 1.5
 READ_TIMEOUT = 0.05  # s; also bounds how long stop() waits
 RECONNECT_DELAY = 0.2  # s between attempts to reopen a vanished device
 WRITE_TIMEOUT = 0.1  # s; a command that cannot be written by then is dropped and counted
@@ -78,7 +76,8 @@ class OdometryGrabber:
 
     ``output`` is the :class:`Latest` (or :class:`~app.grabbers.odometry_history.OdometryHistory`)
     to publish into (a new ``Latest`` by default, available as :attr:`odometry`); ``clock``
-    stamps readings on arrival (default ``time.time``).
+    stamps readings on arrival (default ``time.time``). ``geometry`` and ``max_wheel_speed`` (m/s,
+    beyond which a reading is corrupt) come from the robot file; by default the simulated robot's.
     """
 
     def __init__(
@@ -86,7 +85,7 @@ class OdometryGrabber:
         port: str,
         baudrate: int = DEFAULT_BAUDRATE,
         geometry: DiffDriveGeometry | None = None,
-        max_wheel_speed: float = DEFAULT_MAX_WHEEL_SPEED,
+        max_wheel_speed: float | None = None,
         output: Latest[Odometry] | OdometryHistory | None = None,
         clock=time.time,
         read_timeout: float = READ_TIMEOUT,
@@ -96,6 +95,8 @@ class OdometryGrabber:
         self.baudrate = baudrate
         self.geometry = geometry or robot_from(None).wheels
         self.odometry = output if output is not None else Latest()
+        if max_wheel_speed is None:
+            max_wheel_speed = robot_from(None).max_wheel_speed
         self.integrator = OdometryIntegrator(self.geometry, max_wheel_speed)
         self.decoder = FrameDecoder(accept={TYPE_ENCODER})
         self._clock = clock

@@ -18,19 +18,22 @@ import threading
 from app.grabbers.odometry_grabber import DEFAULT_BAUDRATE, OdometryGrabber, OdometryGrabberStats
 from app.grabbers.shared import Latest
 from app.robot.odometry_ring import OdometryRing
-from slam_core.sensors.wheel_odometry import DiffDriveGeometry
+from slam_core.robot_config import RobotConfig, robot_from
 
 #: How often the command writer looks at its stop flag (s).
 POLL_S = 0.1
 
 
 class RobotLink:
-    """Serial port ``port`` <-> ``ring`` (odometry) and :meth:`send_velocity`."""
+    """Serial port ``port`` <-> ``ring`` (odometry) and :meth:`send_velocity`, for the robot described
+    by ``robot`` (its wheels and speed limits; default: the simulated robot)."""
 
     def __init__(self, port: str, ring: OdometryRing, baudrate: int = DEFAULT_BAUDRATE,
-                 geometry: DiffDriveGeometry | None = None):
+                 robot: RobotConfig | None = None):
+        robot = robot or robot_from(None)
         self.ring = ring
-        self.grabber = OdometryGrabber(port, baudrate, geometry=geometry, output=ring)
+        self.grabber = OdometryGrabber(port, baudrate, geometry=robot.wheels,
+                                       max_wheel_speed=robot.max_wheel_speed, output=ring)
         self._commands: Latest[tuple[float, float]] = Latest()
         self._stop = threading.Event()
         self._writer = threading.Thread(target=self._write_commands, name="robot-link-commands", daemon=True)

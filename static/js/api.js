@@ -59,6 +59,9 @@ export class Api {
   status() {
     return this.request("GET", "status");
   }
+  robot() {
+    return this.request("GET", "robot");
+  }
   // A goal in metres; `yaw` (the heading dragged on the map) is sent when given.
   goal(x, y, yaw = null) {
     return this.request("POST", "goal", yaw === null ? { x, y } : { x, y, yaw });

@@ -225,6 +225,10 @@ class Dashboard {
   }
 
   refreshLists() {
+    this.api.robot().then((robot) => {
+      this.state.robot = robot;
+      this.state.changed("robot");
+    }).catch(() => {}); // offline: asked again on the next connect
     this.panels.refreshPlaces();
     this.panels.refreshMaps();
     this.sessions.refresh();

@@ -4,7 +4,6 @@
 import { covarianceEllipse } from "./geometry.js";
 import { View } from "./view.js";
 
-export const ROBOT_RADIUS_M = 0.17;
 const MIN_ROBOT_RADIUS_PX = 9;
 const COLORS = {
   background: "#e8ebef",
@@ -220,11 +219,13 @@ export class Renderer {
     this.drawRobotAt(pose.x, pose.y, pose.yaw, pose.localized === false ? COLORS.robotLost : COLORS.robot, 1);
   }
 
-  // The robot: a disc of its real size (at least MIN_ROBOT_RADIUS_PX) with an arrow along its heading.
+  // The robot: a disc of its real size (the robot file's footprint radius; at least MIN_ROBOT_RADIUS_PX)
+  // with an arrow along its heading.
   drawRobotAt(x, y, yaw, color, alpha) {
     const { ctx, view } = this;
     const [sx, sy] = view.worldToScreen(x, y);
-    const r = Math.max(MIN_ROBOT_RADIUS_PX, ROBOT_RADIUS_M * view.scale);
+    const radius = this.state.robot?.footprint_radius ?? 0;
+    const r = Math.max(MIN_ROBOT_RADIUS_PX, radius * view.scale);
     const a = View.yawToScreenAngle(yaw);
     ctx.save();
     ctx.globalAlpha = alpha;

@@ -15,6 +15,7 @@ export class State {
     this.path = { goal: null, path: [], state: "idle", reason: null };
     this.landmarks = { landmarks: [], covariances: [] };
     this.status = null; // GET api/status
+    this.robot = null; // GET api/robot: the robot file in use ({footprint_radius, wheels, laser, limits})
     this.places = []; // [{name, x, y, yaw}]
     this.maps = []; // [{name, created, width, height, resolution}]
     this.goalHeading = null; // {x, y, yaw}: the heading the user dragged for the goal at (x, y)

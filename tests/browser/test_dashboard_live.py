@@ -128,6 +128,10 @@ def test_login_form_rejects_a_wrong_token_then_signs_in(browser, homebot_server)
                                timeout=STREAM_TIMEOUT_MS)
         assert page.locator("#st-mode").inner_text().startswith("Mapping")
         assert "Hz" in page.locator("#st-rate").inner_text()
+        # the marker's size is the robot file's footprint
+        page.wait_for_function("window.homebot.state.robot !== null", timeout=STREAM_TIMEOUT_MS)
+        assert state(page, "window.homebot.state.robot.footprint_radius") == \
+            homebot_server.api("GET", "robot").json()["footprint_radius"]
     finally:
         context.close()
 

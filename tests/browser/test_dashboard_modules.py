@@ -308,10 +308,11 @@ def test_renderer_draws_landmark_ellipses_robot_heading_and_scan_where_they_are(
     (REP-103: yaw pi/2 points up the screen), scan points at their world positions."""
     out = run(modules, """
         const { State } = await import('./state.js');
-        const { Renderer, ROBOT_RADIUS_M } = await import('./renderer.js');
+        const { Renderer } = await import('./renderer.js');
         const canvas = document.createElement('canvas');
         canvas.width = 400; canvas.height = 400;
         const state = new State();
+        state.robot = { footprint_radius: 0.17 };
         const r = new Renderer(canvas, state);
         r.view.resize(400, 400); r.view.centerOn(1, 2); r.view.scale = 100;
         state.handle({ type: 'landmarks', landmarks: [[1, 2]], covariances: [[[0.09, 0], [0, 0.01]]] });
@@ -334,7 +335,7 @@ def test_renderer_draws_landmark_ellipses_robot_heading_and_scan_where_they_are(
         const [violet, white] = [[124, 58, 237], [255, 255, 255]];
         const [teal, red] = [[15, 118, 110], [220, 38, 38]];
         const [rx, ry] = r.view.worldToScreen(0, 2);
-        const rr = ROBOT_RADIUS_M * 100;
+        const rr = state.robot.footprint_radius * 100;
         const [px, py] = r.view.worldToScreen(2.5, 3.5);
         return {
             majorEnd: near(cx + a, cy, violet), minorEnd: near(cx, cy - b, violet),
