@@ -98,6 +98,15 @@ def test_serve_names_a_bad_setting_in_one_line(capsys, never_serves, monkeypatch
     assert "token: String should have at least 32 characters" in err, err
 
 
+@pytest.mark.parametrize("name, says", [("HOMEBOT_PARTICLES", "the --config file"),
+                                         ("HOMEBOT_MAX_SPED", "did you mean HOMEBOT_MAX_SPEED?")])
+def test_serve_refuses_a_homebot_variable_that_names_no_setting(capsys, never_serves, monkeypatch, tmp_path,
+                                                                name, says):
+    monkeypatch.setenv(name, "50")
+    err = one_line_error(capsys, ["serve", "--data", str(tmp_path)])
+    assert f"unknown setting {name}" in err and says in err, err
+
+
 @pytest.mark.parametrize("case", sorted(BAD_ROBOTS))
 def test_a_bad_robot_file_is_refused_by_every_command_that_reads_one(capsys, never_serves, tmp_path, case):
     robot = tmp_path / "robot.yaml"

@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import argparse
+import difflib
 import json
+import os
 from pathlib import Path
 
-from app.core.config import WORLDS
+from app.core.config import ENV_PREFIX, WORLDS
 
 
 def register(sub) -> None:
@@ -85,6 +87,20 @@ def write_effective_config(settings) -> list[Path]:
     return written
 
 
+def _refuse_unknown_variables(fields) -> None:
+    """A ``HOMEBOT_*`` variable that names no setting (a typo, or a SLAM setting, which lives in the
+    ``--config`` file) is refused rather than silently ignored."""
+    unknown = sorted(name for name in os.environ
+                     if name.startswith(ENV_PREFIX) and name[len(ENV_PREFIX):].lower() not in fields)
+    if unknown:
+        known = [ENV_PREFIX + f.upper() for f in fields]
+        close = difflib.get_close_matches(unknown[0], known, n=1)
+        hint = f"did you mean {close[0]}? " if close else ""
+        raise ValueError(f"unknown setting {unknown[0]}: {hint}the SLAM settings (particles, resolution, "
+                         "update thresholds) go in the --config file (HOMEBOT_SLAM_CONFIG); the "
+                         "HOMEBOT_* variables are the fields of app/core/config.py")
+
+
 def run(args: argparse.Namespace) -> int:
     import uvicorn
     from pydantic import ValidationError
@@ -96,6 +112,7 @@ def run(args: argparse.Namespace) -> int:
     from app.main import create_app
     from slam_core.session import load_session
 
+    _refuse_unknown_variables(Settings.model_fields)
     overrides = {k: v for k, v in (("host", args.host), ("port", args.port), ("data_dir", args.data),
                                    ("world", args.world), ("robot", args.robot),
                                    ("slam_config", args.config), ("resume_session", args.resume))

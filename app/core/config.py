@@ -15,6 +15,9 @@ if TYPE_CHECKING:
 
 Mode = Literal["mapping", "localization", "ekf"]
 
+#: Every setting is also the environment variable of its name in capitals after this prefix.
+ENV_PREFIX = "HOMEBOT_"
+
 #: Worlds the simulator ships (``homebot serve --world``).
 WORLDS = ("flat", "house")
 
@@ -22,7 +25,7 @@ WORLDS = ("flat", "house")
 class Settings(BaseSettings):
     """Everything ``homebot serve`` can be told; defaults run the simulated robot locally."""
 
-    model_config = SettingsConfigDict(env_prefix="HOMEBOT_", extra="ignore", hide_input_in_errors=True)
+    model_config = SettingsConfigDict(env_prefix=ENV_PREFIX, extra="ignore", hide_input_in_errors=True)
 
     host: str = "127.0.0.1"
     port: int = Field(8000, ge=0, le=65535)
