@@ -11,6 +11,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from app.api.saved_maps import MAP_SUFFIXES
 from app.core.limits import BodySizeLimit
 from app.db.names import check_name
 from app.db.store import AlreadyExists, NotFound, Place, Store
@@ -20,6 +21,7 @@ from app.streaming.hub import FULL_MAP, Hub
 from app.worker.shared_map import UNKNOWN, SharedMap, grid_cells
 from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.scan import Scan
+from slam_core.session import SUFFIX as SESSION_SUFFIX
 
 TILE = 16
 
@@ -176,21 +178,30 @@ def test_an_unsent_map_delta_turns_into_a_full_frame():
 
 
 GOOD_NAMES = ["kitchen", "Living room 2", "map_1-v2", "a-b", "Küche", "é", "客厅", "Спальня", "kitchen #2",
-              "Kid's room", "(spare)"]
+              "Kid's room", "(spare)", "x" * 64, "客" * 64]
+#: Outside the Basic Multilingual Plane: UTF-16 (so ECMAScript's RegExp, Swagger UI's check) counts
+#: each twice, UTF-8 four bytes each; the server takes as many as fit the file names.
+ASTRAL_NAME = "\U0001f600" * 50
 BAD_NAMES = ["", ".hidden", "../x", "a/b", "a\\b", "x" * 65, "..", "a..b", "tab\t", "home.bak", "v1.2",
              "x.png", " lead", "trail ", "nl\n", "a\x00b", "a:b", "a*b", "why?", 'say "hi"', "<b>", "a|b"]
 
 
-@pytest.mark.parametrize("name", GOOD_NAMES)
+@pytest.mark.parametrize("name", [*GOOD_NAMES, ASTRAL_NAME])
 def test_good_names(name):
     assert check_name(name) == name
+
+
+@pytest.mark.parametrize("name", [*GOOD_NAMES, ASTRAL_NAME])
+def test_every_good_name_makes_every_file_homebot_writes_for_it(tmp_path, name):
+    for suffix in (*MAP_SUFFIXES, SESSION_SUFFIX + ".partial"):
+        (tmp_path / f"{name}{suffix}").write_bytes(b"")
 
 
 def test_names_compare_in_nfc_form():
     assert check_name("Ku\u0308che") == "K\u00fcche"
 
 
-@pytest.mark.parametrize("name", [*BAD_NAMES, "x\ud800"])
+@pytest.mark.parametrize("name", [*BAD_NAMES, "x\ud800", "\U0001f600" * 51])
 def test_bad_names_are_refused(name):
     with pytest.raises(ValueError, match="bad"):
         check_name(name)
