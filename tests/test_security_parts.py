@@ -10,7 +10,6 @@ from pathlib import Path
 import httpx
 import pytest
 import yaml
-from fastapi.testclient import TestClient
 from pydantic import ValidationError
 
 from app.cli.serve import server_config
@@ -29,9 +28,13 @@ def test_a_preset_token_needs_32_characters(tmp_path):
 @pytest.mark.parametrize("origins, credentials", [("*", None), ("https://home.example", "true")])
 def test_cors_wildcard_never_allows_credentials(tmp_path, origins, credentials):
     app = create_app(Settings(data_dir=tmp_path, cors_origins=origins))
-    client = TestClient(app)  # no lifespan: the open health route needs no robot
-    r = client.options("/api/health", headers={"Origin": "https://home.example",
-                                               "Access-Control-Request-Method": "GET"})
+
+    async def preflight() -> httpx.Response:  # no lifespan: the open health route needs no robot
+        async with httpx.AsyncClient(transport=httpx.ASGITransport(app), base_url="http://homebot") as client:
+            return await client.options("/api/health", headers={"Origin": "https://home.example",
+                                                                "Access-Control-Request-Method": "GET"})
+
+    r = asyncio.run(preflight())
     assert r.status_code == 200
     assert r.headers.get("access-control-allow-credentials") == credentials
 
