@@ -190,7 +190,10 @@ def test_grabber_reconnects_when_the_device_vanishes_and_odometry_continues(whee
         wait_until(lambda: grabber.stats().disconnects == 1, "the grabber to notice the lost device")
         assert not grabber.send_velocity(0.1, 0.0)  # nothing to send to: refused, counted
 
-        mcu = VirtualMCU(wheels, link=link).start()  # MCU clock restarts from zero
+        # The MCU clock restarts from zero, still on the wheels' simulated time (the host's clock
+        # would let a loaded machine deliver two 4 mm frames 1 ms apart: a jump, rightly dropped).
+        booted = wheels.time
+        mcu = VirtualMCU(wheels, clock=lambda: wheels.time - booted, link=link).start()
         wait_until(lambda: grabber.stats().connects == 2, "the reconnect")
         # The restarted MCU's first frame is a new baseline (its counts cannot be trusted to
         # continue the old ones); wait for odometry from the new stream before moving.
