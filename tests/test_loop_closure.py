@@ -5,9 +5,10 @@ import numpy as np
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from slam_core.geometry import wrap_angle
+from slam_core.geometry import relative, wrap_angle
+from slam_core.graph import pose_graph
 from slam_core.graph.config import LoopClosureConfig
-from slam_core.graph.loop_closure import close_loops, scan_poses
+from slam_core.graph.loop_closure import _chain_information, close_loops, robust_solve, scan_poses
 from slam_core.graph.wide_search import field_pyramid, wide_search
 from slam_core.rbpf.correlative import bounded_search, max_pool, search
 from tests.large_world import drifted
@@ -172,3 +173,32 @@ def test_a_memory_is_dropped_where_the_trajectory_it_searched_has_changed():
     again, _ = close_loops(moved, scans, CONFIG, memory=first.memory)
     after, _ = errors(truth, again.poses)  # the new part's loops, searched again, pull it back
     assert after.max() < 0.03 and again.loop_edges > 20
+
+
+def test_a_warm_started_solve_reaches_the_cold_solves_optimum_in_fewer_steps(monkeypatch):
+    """The next solve of a grown trajectory starts from the last optimum (the new updates carried
+    along by the filter's motion): the same poses as a solve from the filter's poses, in fewer
+    Gauss-Newton steps."""
+    steps = []
+    solve_step = pose_graph.spsolve
+    monkeypatch.setattr(pose_graph, "spsolve", lambda *a: steps.append(1) or solve_step(*a))
+    truth = two_laps()
+    bent = drifted(truth, turn_bias=0.002, scale=1.01)
+    rng = np.random.default_rng(1)
+    scans = [room_scan(p, 360, noise=0.01, rng=rng) for p in truth]
+    first, _ = close_loops(bent[:140], scans[:140], CONFIG)
+    memory = first.memory
+    start = memory.warm_start(bent)
+    assert np.allclose(start[:140], memory.optimised)  # the old part where the last solve put it
+    # the new part moved rigidly with the last old update
+    assert np.allclose(relative(start[139], start[140:]), relative(bent[139], bent[140:]))
+    chain = _chain_information(bent, CONFIG)
+    edges = dict(memory.edges)
+    steps.clear()
+    cold, _ = robust_solve(bent, chain, edges, CONFIG.outlier_chi2)
+    cold_steps = len(steps)
+    steps.clear()
+    warm, _ = robust_solve(bent, chain, edges, CONFIG.outlier_chi2, start=start)
+    assert len(steps) < cold_steps, (len(steps), cold_steps)
+    assert np.abs(warm[:, :2] - cold[:, :2]).max() < 1e-4
+    assert np.abs(wrap_angle(warm[:, 2] - cold[:, 2])).max() < 1e-5
