@@ -79,9 +79,8 @@ class MappingSession:
         return grid
 
 
-def save_session(session: MappingSession, path: Path) -> Path:
-    """Write ``session`` to ``path`` atomically (written beside it, then renamed)."""
-    path = Path(path)
+def write_session(session: MappingSession, file, compress: bool = True) -> None:
+    """Write ``session``'s arrays (the format above) to an open binary ``file``."""
     offsets = np.concatenate([[0], np.cumsum([len(s) for s in session.scans])]).astype(np.int64)
     arrays = {
         "format": np.array(FORMAT), "version": np.array(VERSION),
@@ -94,10 +93,16 @@ def save_session(session: MappingSession, path: Path) -> Path:
         "stamps": np.array([s.timestamp for s in session.scans], float),
         "end_pose": session.end_pose,
     }
+    (np.savez_compressed if compress else np.savez)(file, **arrays)
+
+
+def save_session(session: MappingSession, path: Path) -> Path:
+    """Write ``session`` to ``path`` atomically (written beside it, then renamed)."""
+    path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     partial = path.with_name(path.name + ".partial")
     with open(partial, "wb") as f:
-        np.savez_compressed(f, **arrays)
+        write_session(session, f)
         f.flush()
         os.fsync(f.fileno())
     os.replace(partial, path)
