@@ -91,9 +91,8 @@ def test_a_server_restarted_on_the_same_data_dir_finds_the_robot_in_its_map(tmp_
         print(f"pose error after the server's restart {pose_error(status):.4f} m")
         assert pose_error(status) <= POSE_TOLERANCE_M, status
         assert [e["search"] for e in status["events"] if e["event"] == "relocalized"] == ["global"]
-        # No second copy beside it: a shifted copy would widen the map. (Before the restart the
-        # published map is the live back end's rendering, which may reach further than the
-        # filter's own map that the checkpoint keeps, so the map may shrink, never grow.)
+        # No second copy beside it: a shifted copy would widen the map (the checkpoint keeps the
+        # published map, so it may stay as wide, never grow).
         assert status["map"]["width"] <= shape[0] and status["map"]["height"] <= shape[1], (status, shape)
         after, _ = agreement_with_truth(fetch_map(again, tmp_path / "after"))
         assert after >= before - AGREEMENT_DROP, (before, after)

@@ -241,10 +241,10 @@ class Worker:
         else:
             save_pose(directory, self._checkpoint(with_map=False), self.generation)
 
-    def _rebuild(self, mode: str, grid=None, pose=None, mapping=None, map_name=None) -> None:
+    def _rebuild(self, mode: str, grid=None, pose=None, mapping=None, map_name=None, hit_sums=None) -> None:
         """Swap the estimator, keeping the map frame continuous (odometry re-anchored). With the
         back end's optimised map the new estimator goes on in it, and the mapping session so far
-        is carried over (a new map drops it)."""
+        is carried over (a new ``grid``, with its ``hit_sums`` if known, drops it)."""
         current = self._checkpoint()
         prior = current.session if grid is None else None
         checkpoint = Checkpoint(
@@ -252,7 +252,7 @@ class Worker:
             current.grid if grid is None else grid,
             current.mapping if mapping is None else mapping,
             map_name if map_name is not None else current.map_name,
-            hit_sums=current.hit_sums if grid is None else None)
+            hit_sums=current.hit_sums if grid is None else hit_sums)
         estimator = make_estimator(mode, self.settings, checkpoint)  # ModeUnavailable: keep the old one
         self.estimator, self.mode, self.mapping = estimator, mode, checkpoint.mapping
         self.pose, self.map_name = checkpoint.pose, checkpoint.map_name
@@ -311,7 +311,9 @@ class Worker:
         if abs(session.config.resolution - self.settings.resolution) > 1e-12:
             raise ValueError(f"the session's resolution {session.config.resolution} m is not the server's "
                              f"{self.settings.resolution} m")
-        self._rebuild("mapping", grid=session.grid(), pose=session.end_pose, mapping=True)
+        grid = session.grid()
+        self._rebuild("mapping", grid=grid, pose=session.end_pose, mapping=True,
+                      hit_sums=session.hit_sums(grid))
         self.loops.attach(self.estimator, seeded=True, prior=session)
         self._start_relocalizing()
         self._event("session_resumed", updates=len(session.scans))
