@@ -36,8 +36,10 @@ def echo_endpoints(laser_poses: np.ndarray, scans: list[Scan], usable_range: flo
 
 def add_hit_sums(hits: np.ndarray, origin, resolution: float, laser_poses: np.ndarray, scans: list[Scan],
                  usable_range: float) -> int:
-    """Add the hit sums of ``scans`` (from ``laser_poses``) to ``hits`` ``(ny, nx, 3)``, a grid's
-    cells from ``origin``; returns the number of echoes that fell outside it (not added)."""
+    """Add the hit sums of ``scans`` (from ``laser_poses``) to ``hits`` ``(ny, nx, 3)`` (C-contiguous),
+    a grid's cells from ``origin``; returns the number of echoes that fell outside it (not added)."""
+    if not hits.flags.c_contiguous:
+        raise ValueError("hit sums must be one C-contiguous array (they are added in place)")
     ny, nx = hits.shape[:2]
     end = echo_endpoints(laser_poses, scans, usable_range)
     inv = 1.0 / resolution
