@@ -38,6 +38,7 @@ import numpy as np
 
 from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.rbpf import RBPFConfig
+from slam_core.rbpf.hit_render import add_hit_sums
 from slam_core.rbpf.laser_mount import LaserMount
 from slam_core.scan import Scan
 
@@ -78,10 +79,17 @@ class MappingSession:
             grid.integrate(scan, pose)
         return grid
 
+    def hit_sums(self, grid: OccupancyGrid) -> np.ndarray:
+        """The updates' per-cell hit sums ``(ny, nx, 3)`` on ``grid``'s cells (as :meth:`grid` renders
+        them), for a particle filter seeded with that map (:mod:`slam_core.rbpf.hit_render`)."""
+        hits = np.zeros((*grid.shape, 3), np.float32)
+        add_hit_sums(hits, grid.origin, grid.resolution, self.laser_mount.laser_poses(self.poses), self.scans,
+                     self.config.sensor.usable_range)
+        return hits
 
-def save_session(session: MappingSession, path: Path) -> Path:
-    """Write ``session`` to ``path`` atomically (written beside it, then renamed)."""
-    path = Path(path)
+
+def write_session(session: MappingSession, file, compress: bool = True) -> None:
+    """Write ``session``'s arrays (the format above) to an open binary ``file``."""
     offsets = np.concatenate([[0], np.cumsum([len(s) for s in session.scans])]).astype(np.int64)
     arrays = {
         "format": np.array(FORMAT), "version": np.array(VERSION),
@@ -94,10 +102,16 @@ def save_session(session: MappingSession, path: Path) -> Path:
         "stamps": np.array([s.timestamp for s in session.scans], float),
         "end_pose": session.end_pose,
     }
+    (np.savez_compressed if compress else np.savez)(file, **arrays)
+
+
+def save_session(session: MappingSession, path: Path) -> Path:
+    """Write ``session`` to ``path`` atomically (written beside it, then renamed)."""
+    path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     partial = path.with_name(path.name + ".partial")
     with open(partial, "wb") as f:
-        np.savez_compressed(f, **arrays)
+        write_session(session, f)
         f.flush()
         os.fsync(f.fileno())
     os.replace(partial, path)

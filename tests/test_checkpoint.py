@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -14,6 +15,7 @@ from app.worker.checkpoint import (
     quarantine_newest,
     save_pose,
     save_snapshot,
+    session_path,
     snapshot_path,
     write_atomically,
 )
@@ -22,6 +24,9 @@ from app.worker.map_limits import check_room, map_box
 from app.worker.shared_map import MapTooLarge
 from slam_core.rbpf.config import RBPFConfig
 from slam_core.rbpf.filter import RBPFSlam
+from slam_core.rbpf.laser_mount import LaserMount
+from slam_core.scan import Scan
+from slam_core.session import MappingSession
 from tests.synthetic_room import room_scan
 
 CAPACITY = 2048 * 2048
@@ -120,6 +125,76 @@ def test_quarantine_newest_falls_back_a_generation(tmp_path, mapped_room):
     aside = quarantine_newest(tmp_path)
     assert aside.name.startswith(f"map-{second:06d}.bad-")
     assert load_checkpoint(tmp_path, CAPACITY).generation == first
+
+
+def _session(updates: int) -> MappingSession:
+    rng = np.random.default_rng(updates)
+    scans = [Scan(np.linspace(-1.5, 1.5, 30), rng.uniform(0.2, 8.0, 30), 0.05, 10.0, float(k))
+             for k in range(updates)]
+    poses = rng.normal(size=(updates, 3))
+    return MappingSession(RBPFConfig(particles=4), LaserMount(0.05, 0.0, 0.0), poses, poses + 0.2, scans,
+                          poses[-1])
+
+
+def test_the_mapping_session_is_kept_with_its_snapshot_and_set_aside_with_it(tmp_path, mapped_room):
+    first = save_snapshot(tmp_path, replace(checkpoint_of(mapped_room), session=_session(5)))
+    newest = save_snapshot(tmp_path, replace(checkpoint_of(mapped_room), session=_session(9)))
+    restored = load_checkpoint(tmp_path, CAPACITY).checkpoint
+    assert len(restored.session.scans) == 9
+    assert np.array_equal(restored.session.poses, _session(9).poses)
+    assert np.array_equal(restored.session.scans[8].ranges, _session(9).scans[8].ranges.astype(np.float32))
+    session_path(tmp_path, newest).write_bytes(b"not a session")  # damaged: the generation is set aside
+    restored = load_checkpoint(tmp_path, CAPACITY)
+    assert restored.generation == first and len(restored.checkpoint.session.scans) == 5
+    [(aside, reason)] = restored.quarantined
+    assert "mapping session" in reason and aside.name.startswith(f"map-{newest:06d}.bad-")
+    assert not session_path(tmp_path, newest).exists()
+    assert len(list(tmp_path.glob(f"session-{newest:06d}.bad-*"))) == 1  # kept for inspection
+    for _ in range(GENERATIONS_KEPT):
+        last = save_snapshot(tmp_path, replace(checkpoint_of(mapped_room), session=_session(3)))
+    kept = sorted(p.name for p in tmp_path.glob("session-??????.session.npz"))
+    assert kept == [session_path(tmp_path, g).name for g in range(last - GENERATIONS_KEPT + 1, last + 1)]
+
+
+def test_a_snapshot_whose_session_is_missing_is_refused_not_resumed_without_it(tmp_path, mapped_room):
+    first = save_snapshot(tmp_path, replace(checkpoint_of(mapped_room, (1.0, 0.5, 0.2)), session=_session(5)))
+    newest = save_snapshot(tmp_path, replace(checkpoint_of(mapped_room), session=_session(9)))
+    session_path(tmp_path, newest).unlink()
+    restored = load_checkpoint(tmp_path, CAPACITY)
+    assert restored.generation == first and len(restored.checkpoint.session.scans) == 5
+    assert "session file is missing" in restored.quarantined[0][1]
+
+
+def _rewrite_state(path, change) -> None:
+    """Rewrite a snapshot's state (``change(state)`` edits it in place), its arrays kept."""
+    data = dict(np.load(path))
+    state = json.loads(str(data["state"]))
+    change(state)
+    np.savez(path, **{**data, "state": np.array(json.dumps(state))})
+
+
+def test_a_format_1_snapshot_still_loads_with_its_map_and_hit_sums(tmp_path, mapped_room):
+    """Format 1 (before versions): the filter's own map and pose, no session."""
+    saved = checkpoint_of(mapped_room, pose=(1.0, 0.5, 0.2))
+    generation = save_snapshot(tmp_path, saved)
+    path = snapshot_path(tmp_path, generation)
+    _rewrite_state(path, lambda state: (state.pop("version"), state.pop("session")))
+    restored = load_checkpoint(tmp_path, CAPACITY)
+    assert restored.generation == generation and not restored.quarantined
+    loaded = restored.checkpoint
+    assert np.array_equal(loaded.grid.data, saved.grid.data)
+    assert np.array_equal(loaded.hit_sums, saved.hit_sums)
+    assert np.allclose(loaded.pose, (1.0, 0.5, 0.2)) and loaded.session is None
+
+
+def test_a_snapshot_of_a_newer_format_is_refused_with_its_format_named(tmp_path, mapped_room):
+    first = save_snapshot(tmp_path, checkpoint_of(mapped_room, pose=(1.0, 0.5, 0.2)))
+    newest = save_snapshot(tmp_path, checkpoint_of(mapped_room, pose=(2.0, 0.5, 0.2)))
+    _rewrite_state(snapshot_path(tmp_path, newest), lambda state: state.update(version=3))
+    restored = load_checkpoint(tmp_path, CAPACITY)
+    assert restored.generation == first and np.allclose(restored.checkpoint.pose, (1.0, 0.5, 0.2))
+    [(aside, reason)] = restored.quarantined
+    assert "checkpoint format 3" in reason and aside.exists()
 
 
 @pytest.mark.parametrize("x", [500.0, -5.8e16, float("inf")])

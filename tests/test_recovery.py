@@ -11,8 +11,10 @@ import os
 import signal
 import time
 
+import numpy as np
 import pytest
 
+from slam_core.session import SUFFIX, load_session
 from tests.live_server import LiveServer
 from tests.recovery_harness import (
     agreement_with_truth,
@@ -46,9 +48,11 @@ def test_worker_kills_and_an_mcu_power_cycle_while_driving_lose_nothing(tmp_path
             assert [e for e in status["events"] if e["event"] == "relocalized"], status["events"]
             time.sleep(3.0)  # drive on, mapping again
         status = stop_robot(server)
+        after, _ = agreement_with_truth(fetch_map(server, tmp_path / "after"))
+        print(f"pose error after 3 kills {pose_error(status):.4f} m, map agreement {before:.4f} before, "
+              f"{after:.4f} after")
         assert status["worker"]["restarts"] == 3 and localized(status)
         assert pose_error(status) <= POSE_TOLERANCE_M, status
-        after, _ = agreement_with_truth(fetch_map(server, tmp_path / "after"))
         assert after >= before - AGREEMENT_DROP, (before, after)
 
         # A pose far outside the home never reaches the map (refused by the API or by the worker).
@@ -84,11 +88,11 @@ def test_a_server_restarted_on_the_same_data_dir_finds_the_robot_in_its_map(tmp_
     again = LiveServer(data).start()  # the tour off: the robot waits at the world's start
     try:
         status, _ = wait_for(again, localized, TIMEOUT_S)
+        print(f"pose error after the server's restart {pose_error(status):.4f} m")
         assert pose_error(status) <= POSE_TOLERANCE_M, status
         assert [e["search"] for e in status["events"] if e["event"] == "relocalized"] == ["global"]
-        # No second copy beside it: a shifted copy would widen the map. (Before the restart the
-        # published map is the live back end's rendering, which may reach further than the
-        # filter's own map that the checkpoint keeps, so the map may shrink, never grow.)
+        # No second copy beside it: a shifted copy would widen the map (the checkpoint keeps the
+        # published map, so it may stay as wide, never grow).
         assert status["map"]["width"] <= shape[0] and status["map"]["height"] <= shape[1], (status, shape)
         after, _ = agreement_with_truth(fetch_map(again, tmp_path / "after"))
         assert after >= before - AGREEMENT_DROP, (before, after)
@@ -123,5 +127,49 @@ def test_mode_switches_keep_the_map_and_only_new_map_starts_an_empty_one(tmp_pat
             wait_for(server, lambda s: any(e["event"] == "changed" for e in s["events"][-2:]), TIMEOUT_S)
             time.sleep(2.0)
         assert known_cells(server, tmp_path / "new") < 0.7 * mapped  # one view of the room, not the home
+    finally:
+        server.stop()
+
+
+def solving(status: dict) -> bool:
+    """Localized, with a loop-closing solve done by the current worker."""
+    return localized(status) and (status["loops"] or {}).get("solves", 0) >= 1
+
+
+def _saved_session(server: LiveServer, name: str):
+    """Save the mapping session over REST and read the file the worker wrote."""
+    with server.client() as c:
+        r = c.post("/api/sessions", json={"name": name})
+    assert r.status_code == 201, r.text
+    return load_session(server.data_dir / "sessions" / f"{name}{SUFFIX}")
+
+
+def test_the_loop_closing_back_end_goes_on_after_a_worker_kill_in_the_optimised_frame(tmp_path):
+    """The checkpoint keeps the optimised map (with hit sums), the corrected pose and the mapping
+    session: the restarted worker's back end solves again over every update since the map began,
+    the published map stays in register with the truth and the pose on it."""
+    server = LiveServer(tmp_path / "data", env={"HOMEBOT_SIM_TOUR": "1"}).start()
+    try:
+        wait_for(server, solving, 120.0)
+        before = _saved_session(server, "before")
+        agreement_before, _ = agreement_with_truth(fetch_map(server, tmp_path / "before"))
+        time.sleep(1.5)  # a snapshot (every second while mapping) after it
+        kill_worker(server)
+        status, _ = wait_for(server, solving, 120.0)
+        assert status["worker"]["restarts"] == 1
+        agreement_after, _ = agreement_with_truth(fetch_map(server, tmp_path / "after"))
+        status = stop_robot(server)
+        print(f"pose error after the restart's first solve {pose_error(status):.4f} m, map agreement "
+              f"{agreement_before:.4f} before the kill, {agreement_after:.4f} after")
+        assert pose_error(status) <= POSE_TOLERANCE_M, status
+        assert agreement_after >= agreement_before - AGREEMENT_DROP, (agreement_before, agreement_after)
+        after = _saved_session(server, "after")
+        n = len(before.scans)
+        assert len(after.scans) > n
+        stamps_before = [s.timestamp for s in before.scans]
+        stamps_after = [s.timestamp for s in after.scans[:n]]
+        assert stamps_after == stamps_before, sorted(set(stamps_before) ^ set(stamps_after))
+        true = status["true_pose"]
+        assert np.hypot(*(after.end_pose[:2] - true[:2])) <= POSE_TOLERANCE_M, (after.end_pose, true)
     finally:
         server.stop()

@@ -7,6 +7,16 @@ file, fsynced and renamed, so a crash leaves either the old or the new snapshot,
 of one. The newest :data:`GENERATIONS_KEPT` are kept. Between snapshots the pose is saved,
 just as atomically, to ``pose.json`` with the generation it belongs to.
 
+Format :data:`VERSION` (``"version"`` in the state) is in the published map frame: after a
+loop-closing solve the map is the optimised one, with hit sums rendered from the session's scans
+at the optimised poses (:mod:`slam_core.rbpf.hit_render`), and the pose is the corrected one; while
+the back end runs, the mapping session is beside it (``session-000042.session.npz``,
+:mod:`slam_core.session`, written first, atomically too), so a restarted worker closes loops
+against everything mapped before. A snapshot without ``"version"`` (format 1: the filter's own
+map and pose, no session) still loads, a consistent map and pose in the filter's frame, and its
+back end starts afresh. A snapshot of a newer format, or whose session is missing or damaged, is
+refused (and set aside as below) rather than read wrongly.
+
 A snapshot that fails to load, or that the supervisor blames for a crash loop
 (:func:`quarantine_newest`), is renamed ``map-000042.bad-20260101T120000.npz`` (kept for
 inspection, never loaded again) and the previous generation is used.
@@ -21,7 +31,7 @@ import re
 import time
 import zipfile
 import zlib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -31,7 +41,10 @@ from app.worker.shared_map import MAX_SIDE
 from slam_core.io.render import save_png
 from slam_core.io.ros_map import save_map
 from slam_core.occupancy_grid import OccupancyGrid
+from slam_core.session import SUFFIX, SessionError, load_session, write_session
 
+#: The snapshot format written; format 1 (no ``"version"``) is read too.
+VERSION = 2
 POSE_FILE = "pose.json"
 GENERATIONS_KEPT = 3
 SNAPSHOT = re.compile(r"map-(\d{6})\.npz")
@@ -60,6 +73,10 @@ def snapshot_path(directory: Path, generation: int) -> Path:
     return Path(directory) / f"map-{generation:06d}.npz"
 
 
+def session_path(directory: Path, generation: int) -> Path:
+    return Path(directory) / f"session-{generation:06d}{SUFFIX}"
+
+
 def write_atomically(path: Path, write) -> None:
     """Call ``write(file)`` on a temp file beside ``path``, fsync it, rename it over ``path``."""
     tmp = path.with_name(f".{path.name}.tmp")
@@ -76,14 +93,14 @@ def write_atomically(path: Path, write) -> None:
 
 
 def _state(checkpoint: Checkpoint) -> dict:
-    return {"mode": checkpoint.mode, "pose": [float(v) for v in checkpoint.pose],
+    return {"version": VERSION, "mode": checkpoint.mode, "pose": [float(v) for v in checkpoint.pose],
             "mapping": checkpoint.mapping, "map_name": checkpoint.map_name,
             "ticks": None if checkpoint.ticks is None else [int(t) for t in checkpoint.ticks],
-            "time": time.time()}
+            "session": checkpoint.session is not None, "time": time.time()}
 
 
 def save_snapshot(directory: Path, checkpoint: Checkpoint) -> int:
-    """Write ``checkpoint`` (with its map) as the next generation; returns that generation."""
+    """Write ``checkpoint`` (with its map and session) as the next generation; returns that generation."""
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
     existing = generations(directory)
@@ -95,9 +112,12 @@ def save_snapshot(directory: Path, checkpoint: Checkpoint) -> int:
                       resolution=np.array(grid.resolution))
         if checkpoint.hit_sums is not None:
             arrays["hit_sums"] = checkpoint.hit_sums.astype(np.float32)
+    if checkpoint.session is not None:
+        write_atomically(session_path(directory, generation), lambda f: write_session(checkpoint.session, f))
     write_atomically(snapshot_path(directory, generation), lambda f: np.savez_compressed(f, **arrays))
     for old in existing[:max(0, len(existing) + 1 - GENERATIONS_KEPT)]:
         snapshot_path(directory, old).unlink(missing_ok=True)
+        session_path(directory, old).unlink(missing_ok=True)
     return generation
 
 
@@ -107,8 +127,9 @@ def save_pose(directory: Path, checkpoint: Checkpoint, generation: int) -> None:
     write_atomically(Path(directory) / POSE_FILE, lambda f: f.write(text))
 
 
-def read_snapshot(path: Path, max_cells: int) -> Checkpoint:
-    """One snapshot, checked; :class:`BadCheckpoint` says why it cannot be used."""
+def read_snapshot(path: Path, max_cells: int, session: Path | None = None) -> Checkpoint:
+    """One snapshot (with its mapping ``session`` file when it has one), checked;
+    :class:`BadCheckpoint` says why it cannot be used."""
     try:
         with np.load(path, allow_pickle=False) as z:
             state = json.loads(str(z["state"]))
@@ -119,6 +140,16 @@ def read_snapshot(path: Path, max_cells: int) -> Checkpoint:
         checkpoint = _checkpoint(state, grid, hits)
     except (OSError, ValueError, KeyError, TypeError, EOFError, zipfile.BadZipFile, zlib.error) as exc:
         raise BadCheckpoint(f"unreadable: {type(exc).__name__}: {exc}") from None
+    version = state.get("version", 1)
+    if version not in (1, VERSION):
+        raise BadCheckpoint(f"checkpoint format {version!r}; this homebot reads formats 1 and {VERSION}")
+    if state.get("session"):
+        if session is None or not session.exists():
+            raise BadCheckpoint("its mapping session file is missing")
+        try:
+            checkpoint = replace(checkpoint, session=load_session(session))
+        except SessionError as exc:
+            raise BadCheckpoint(f"its mapping session: {exc}") from None
     if grid is not None:
         if grid.data.ndim != 2 or grid.data.size > max_cells or max(grid.data.shape) > MAX_SIDE:
             raise BadCheckpoint(f"map of shape {grid.data.shape} exceeds the limit of {max_cells} cells "
@@ -144,22 +175,28 @@ def load_checkpoint(directory: Path, max_cells: int) -> Restored:
     for generation in reversed(generations(directory)):
         path = snapshot_path(directory, generation)
         try:
-            checkpoint = read_snapshot(path, max_cells)
+            checkpoint = read_snapshot(path, max_cells, session_path(directory, generation))
         except BadCheckpoint as exc:
-            restored.quarantined.append((quarantine(path), str(exc)))
+            restored.quarantined.append((quarantine(directory, generation), str(exc)))
             continue
         with contextlib.suppress(OSError, ValueError, KeyError, TypeError, IndexError):
             state = json.loads((directory / POSE_FILE).read_text())
             if state.get("generation") == generation:
-                checkpoint = _checkpoint(state, checkpoint.grid, checkpoint.hit_sums)
+                checkpoint = replace(_checkpoint(state, checkpoint.grid, checkpoint.hit_sums),
+                                     session=checkpoint.session)
         restored.checkpoint, restored.generation = checkpoint, generation
         return restored
     return restored
 
 
-def quarantine(path: Path) -> Path:
-    """Rename a snapshot aside, with the time in its name, so it is kept but never loaded again."""
+def quarantine(directory: Path, generation: int) -> Path:
+    """Rename a snapshot (and its session) aside, with the time in the name, so it is kept but never
+    loaded again; the snapshot's new path."""
     stamp = time.strftime("%Y%m%dT%H%M%S", time.gmtime())
+    session = session_path(directory, generation)
+    if session.exists():
+        os.replace(session, session.with_name(f"{session.name.removesuffix(SUFFIX)}.bad-{stamp}{SUFFIX}"))
+    path = snapshot_path(directory, generation)
     target = path.with_name(f"{path.stem}.bad-{stamp}{path.suffix}")
     os.replace(path, target)
     return target
@@ -168,7 +205,7 @@ def quarantine(path: Path) -> Path:
 def quarantine_newest(directory: Path) -> Path | None:
     """Set the newest snapshot aside (the supervisor blames it for a crash loop); its new path."""
     found = generations(directory)
-    return quarantine(snapshot_path(directory, found[-1])) if found else None
+    return quarantine(directory, found[-1]) if found else None
 
 
 def save_exit_map(grid: OccupancyGrid, stem: Path, trajectory=None) -> list[Path]:

@@ -23,6 +23,7 @@ from slam_core.rbpf.filter import RBPFSlam
 from slam_core.rbpf.laser_mount import LaserMount
 from slam_core.robot_config import RobotConfig
 from slam_core.scan import Scan
+from slam_core.session import MappingSession
 
 
 class ModeUnavailable(RuntimeError):
@@ -31,7 +32,8 @@ class ModeUnavailable(RuntimeError):
 
 @dataclass
 class Checkpoint:
-    """What a restarted worker resumes from: the last map, pose and mode."""
+    """What a restarted worker resumes from: the last map, pose and mode (in the published map
+    frame), and the mapping session the loop-closing back end goes on from."""
 
     mode: str
     pose: np.ndarray
@@ -40,6 +42,7 @@ class Checkpoint:
     map_name: str | None = None
     ticks: tuple[int, int] | None = None  # the MCU's cumulative encoder counts at ``pose``
     hit_sums: np.ndarray | None = None  # per-cell beam endpoint sums of ``grid`` (RBPF maps)
+    session: MappingSession | None = None
 
 
 class FrozenMap:

@@ -9,7 +9,9 @@ optimised poses; the filter never waits for it. The worker takes the finished
 filter's frame onto the optimised one (the ``map -> odom`` correction of REP-105, here
 ``map -> filter``); the published pose is that correction composed with the filter's
 pose, and the published map is the optimised one with the updates since drawn in at
-corrected poses.
+corrected poses. Each solve also renders the map's hit sums (:mod:`slam_core.rbpf.hit_render`,
+in its thread), so that a checkpoint of the optimised map resumes a filter that matches to the mean
+beam endpoints as its own map would.
 
 A back end may start from a saved mapping session (:mod:`slam_core.session`): its updates
 come first in every solve, so loops close against the old part, and :meth:`LiveBackEnd.session`
@@ -35,6 +37,7 @@ from slam_core.graph.loop_closure import LoopMemory, close_loops
 from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.pipelines.log_slam import best_updates
 from slam_core.rbpf import RBPFConfig, RBPFSlam
+from slam_core.rbpf.hit_render import add_hit_sums
 from slam_core.rbpf.laser_mount import LaserMount
 from slam_core.scan import Scan
 from slam_core.session import MappingSession
@@ -47,13 +50,16 @@ FULL_SOLVE_GROWTH = 2.0
 class BackEndResult:
     """One solve: the optimised (robot) pose of each of the first ``len(poses)`` updates (a prior
     session's first), the poses it started from, the loop edges kept and the map rendered from the
-    optimised poses."""
+    optimised poses, with its hit sums (``(ny, nx, 3)`` from ``hits_origin``: the grid's origin
+    then, as the worker draws the updates since into the grid and may grow it)."""
 
     poses: np.ndarray
     filter_poses: np.ndarray
     loop_edges: int
     grid: OccupancyGrid
     seconds: float
+    hit_sums: np.ndarray
+    hits_origin: np.ndarray
 
     @property
     def correction(self) -> np.ndarray:
@@ -144,7 +150,11 @@ class LiveBackEnd:
         if memory is None:
             self._full_at = len(poses)
         grid = render(c, self.mount, closed.poses, scans, layout)
-        result = BackEndResult(closed.poses, poses, closed.loop_edges, grid, time.perf_counter() - started)
+        hits = np.zeros((*grid.shape, 3), np.float32)
+        add_hit_sums(hits, grid.origin, c.resolution, self.mount.laser_poses(closed.poses), scans,
+                     c.sensor.usable_range)
+        result = BackEndResult(closed.poses, poses, closed.loop_edges, grid, time.perf_counter() - started,
+                               hits, grid.origin.copy())
         with self._lock:
             self._done = result
             self.solves += 1

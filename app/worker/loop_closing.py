@@ -3,8 +3,9 @@
 :class:`~app.worker.live_back_end.LiveBackEnd` solves in its own thread; :class:`LoopClosing`
 takes its finished solves in the worker's thread, counts loop closures (a solve with more loop
 edges than any before), moves the filter's estimate into the optimised frame, and keeps the
-published map: the optimised one with the filter's updates since drawn in at corrected poses. It
-also keeps the mapping session (:mod:`slam_core.session`) across estimator rebuilds.
+published map: the optimised one with the filter's updates since drawn in at corrected poses, and
+gives its hit sums for a checkpoint (:meth:`LoopClosing.published_hits`). It also keeps the mapping
+session (:mod:`slam_core.session`) across estimator rebuilds.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from slam_core.geometry import compose, wrap_angle
 from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.pipelines.log_slam import best_updates
 from slam_core.rbpf import RBPFSlam
+from slam_core.rbpf.hit_render import add_hit_sums
 from slam_core.session import MappingSession
 
 
@@ -81,6 +83,19 @@ class LoopClosing:
             result.grid.integrate(scans[k], mount.laser_poses(compose(result.correction, best[k])))
         self.published_grid = result.grid
         return jump
+
+    def published_hits(self, session: MappingSession) -> np.ndarray:
+        """The published map's hit sums ``(ny, nx, 3)``: the last solve's, with those of ``session``'s
+        updates after it (:meth:`session`: at their corrected poses) added; after a solve only."""
+        grid, solved = self.published_grid, self.solved
+        hits = np.zeros((*grid.shape, 3), np.float32)
+        x, y = np.round((solved.hits_origin - grid.origin) / grid.resolution).astype(int)  # it only grows
+        ny, nx = solved.hit_sums.shape[:2]
+        hits[y:y + ny, x:x + nx] = solved.hit_sums
+        done = len(solved.poses)
+        laser = session.laser_mount.laser_poses(session.poses[done:])
+        add_hit_sums(hits, grid.origin, grid.resolution, laser, session.scans[done:], grid.model.usable_range)
+        return hits
 
     def wait(self) -> None:
         """Until the running solve (if any) is done."""

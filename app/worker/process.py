@@ -156,7 +156,8 @@ class Worker:
             self.mode = "mapping"
             self.estimator = make_estimator("mapping", s, checkpoint)
         self.loops = LoopClosing()
-        self.loops.attach(self.estimator, seeded=checkpoint.grid is not None)
+        self.loops.attach(self.estimator, seeded=checkpoint.grid is not None,
+                          prior=self._usable(checkpoint.session))
         self.updated_at: np.ndarray | None = None  # re-anchored odometry at the estimator's last update
         self.ticks: tuple[int, int] | None = None  # encoder counts of the last step
         self.steps = 0
@@ -174,6 +175,14 @@ class Worker:
         self.warming: BackgroundWarmUp | None = None  # kernels compiling; meanwhile a preview (warm_start)
         self.preview: PreviewMap | None = None
         self.deferred: list[Command] = []  # commands that wait for the kernels
+
+    def _usable(self, session: MappingSession | None) -> MappingSession | None:
+        """A checkpoint's session, unless it was mapped at another resolution than the server's now."""
+        if session is not None and abs(session.config.resolution - self.settings.resolution) > 1e-12:
+            self._event("error", detail=f"the checkpoint's mapping session is at {session.config.resolution} "
+                        f"m, the server maps at {self.settings.resolution} m: loops close from now on only")
+            return None
+        return session
 
     # messages to the server
     def _event(self, event: str, **fields) -> None:
@@ -207,14 +216,21 @@ class Worker:
 
     # estimator management
     def _checkpoint(self, with_map: bool = True) -> Checkpoint:
-        grid = hits = None
+        """What to resume from, in the published (map) frame: after a loop-closing solve, the
+        optimised map with its hit sums and the corrected pose; with the map, the mapping session."""
+        grid = hits = session = None
         if with_map:
-            grid, hits = map_with_hits(self.estimator)
-            if grid is None or not grid.data.size:
-                grid, hits = self.kept_grid, self.kept_hits
-            elif hits is None and self.kept_hits is not None and self.kept_hits.shape[:2] == grid.shape:
-                hits = self.kept_hits
-        return Checkpoint(self.mode, self.pose.copy(), grid, self.mapping, self.map_name, self.ticks, hits)
+            session = self.loops.session(self.estimator, self.pose)
+            if self.loops.solved is not None:
+                grid, hits = self.loops.published_grid, self.loops.published_hits(session)
+            else:
+                grid, hits = map_with_hits(self.estimator)
+                if grid is None or not grid.data.size:
+                    grid, hits = self.kept_grid, self.kept_hits
+                elif hits is None and self.kept_hits is not None and self.kept_hits.shape[:2] == grid.shape:
+                    hits = self.kept_hits
+        return Checkpoint(self.mode, self.loops.map_pose(self.pose), grid, self.mapping, self.map_name,
+                          self.ticks, hits, session)
 
     def _save(self, with_map: bool) -> None:
         """A snapshot (map and pose) or just the pose; see :mod:`app.worker.checkpoint`."""
@@ -225,21 +241,18 @@ class Worker:
         else:
             save_pose(directory, self._checkpoint(with_map=False), self.generation)
 
-    def _rebuild(self, mode: str, grid=None, pose=None, mapping=None, map_name=None) -> None:
+    def _rebuild(self, mode: str, grid=None, pose=None, mapping=None, map_name=None, hit_sums=None) -> None:
         """Swap the estimator, keeping the map frame continuous (odometry re-anchored). With the
         back end's optimised map the new estimator goes on in it, and the mapping session so far
-        is carried over (a new map drops it)."""
-        prior = self.loops.session(self.estimator, self.pose) if grid is None else None
+        is carried over (a new ``grid``, with its ``hit_sums`` if known, drops it)."""
         current = self._checkpoint()
-        if self.loops.solved is not None and grid is None:
-            current = replace(current, grid=self.loops.published_grid, hit_sums=None,
-                              pose=self.loops.map_pose(self.pose))
+        prior = current.session if grid is None else None
         checkpoint = Checkpoint(
             mode, current.pose if pose is None else np.asarray(pose, float),
             current.grid if grid is None else grid,
             current.mapping if mapping is None else mapping,
             map_name if map_name is not None else current.map_name,
-            hit_sums=current.hit_sums if grid is None else None)
+            hit_sums=current.hit_sums if grid is None else hit_sums)
         estimator = make_estimator(mode, self.settings, checkpoint)  # ModeUnavailable: keep the old one
         self.estimator, self.mode, self.mapping = estimator, mode, checkpoint.mapping
         self.pose, self.map_name = checkpoint.pose, checkpoint.map_name
@@ -298,7 +311,9 @@ class Worker:
         if abs(session.config.resolution - self.settings.resolution) > 1e-12:
             raise ValueError(f"the session's resolution {session.config.resolution} m is not the server's "
                              f"{self.settings.resolution} m")
-        self._rebuild("mapping", grid=session.grid(), pose=session.end_pose, mapping=True)
+        grid = session.grid()
+        self._rebuild("mapping", grid=grid, pose=session.end_pose, mapping=True,
+                      hit_sums=session.hit_sums(grid))
         self.loops.attach(self.estimator, seeded=True, prior=session)
         self._start_relocalizing()
         self._event("session_resumed", updates=len(session.scans))

@@ -1,0 +1,38 @@
+"""The published map's hit sums (what a checkpoint keeps after a loop-closing solve) are those the
+filter's own kernels would accumulate from the session's scans at the session's poses."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from app.worker.loop_closing import LoopClosing
+from slam_core.rbpf.config import RBPFConfig
+from slam_core.rbpf.filter import RBPFSlam
+from slam_core.rbpf.tiled_map import HIT_N, TiledMaps
+from tests.synthetic_room import room_scan
+
+
+def test_the_published_hit_sums_match_the_session_drawn_by_the_filters_kernels():
+    slam = RBPFSlam(RBPFConfig(particles=3, linear_update=0.1, angular_update=0.1), seed=4)
+    loops = LoopClosing()
+    loops.attach(slam, seeded=False)
+    for i in range(32):  # a solve after 20 updates, 12 more drawn in after it
+        pose = np.array([-1.0 + 0.09 * i, -0.5 + 0.05 * i, 0.08 * i])
+        scan = room_scan(pose)
+        if slam.step(pose, scan):
+            loops.updated(slam, scan)
+        loops.wait()  # each solve is taken right after the update that started it
+        loops.take(slam)
+    assert loops.solved is not None and len(loops.solved.poses) < len(loops.back_end.scans)
+    session = loops.session(slam, slam.estimate().pose)
+    hits = loops.published_hits(session)
+    grid = loops.published_grid
+    maps = TiledMaps(1, grid.resolution, grid.model)
+    for laser, scan in zip(session.laser_mount.laser_poses(session.poses), session.scans, strict=True):
+        maps.integrate(laser[None], scan)
+    expected, origin = maps.hit_sums(0), maps.to_grid(0).origin
+    x, y = np.round((origin - grid.origin) / grid.resolution).astype(int)
+    ny, nx = expected.shape[:2]
+    assert x >= 0 and y >= 0 and hits[..., HIT_N].sum() == expected[..., HIT_N].sum() > 3000
+    np.testing.assert_array_equal(hits[y:y + ny, x:x + nx, HIT_N], expected[..., HIT_N])
+    np.testing.assert_allclose(hits[y:y + ny, x:x + nx], expected, atol=1e-4)
