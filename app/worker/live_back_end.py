@@ -19,9 +19,10 @@ gives the session to save or to carry over when the estimator is rebuilt.
 
 Solves are incremental: each goes on from the last one's :class:`~slam_core.graph.loop_closure.LoopMemory`
 (the loop edges found stay, only the updates since are searched, the graph starts from the
-edges kept and is optimised from the last optimum), and every time the map has doubled since the last full solve, a full one searches
-every update again from the optimised poses (closures the drift hid at first). The map is
-rendered again from the optimised poses after every solve.
+edges kept and is optimised from the last optimum), and every time the map has doubled since
+the last full solve, a full one searches every update again from the optimised poses
+(closures the drift hid at first). The map is rendered again from the optimised poses after
+every solve.
 """
 
 from __future__ import annotations
