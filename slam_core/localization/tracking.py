@@ -5,7 +5,12 @@ pose that a scan matcher has pinned to the map; the particle filter alone
 publishes the mean of a cloud that the motion noise keeps blurred. The tracker
 does the former on every scan:
 
-1. *predict*: the tracked pose moves with the odometry since the previous scan;
+1. *predict*: the tracked pose moves with the odometry since the previous scan. An odometry
+   that freezes right after moving (a stall: less than ``stall_xy`` and ``stall_theta``
+   after a step of at least ``stall_min_step``) has not seen the robot stop, which no robot
+   does from speed within one scan: the prediction goes on at the speed before the freeze
+   (its last step), for up to ``stall_travel`` metres. When the odometry catches up, the step it reports holds
+   the motion already predicted, which is taken off it (down to the speed before the freeze);
 2. *match*: :class:`ScanToMapMatcher` refines it against the map, held to the
    prediction by a prior whose spread grows with the odometry's motion since the
    last accepted match (a robot that stands still does not slide along a corridor);
@@ -63,6 +68,13 @@ class TrackingConfig:
     confirm_travel: float = 3.0
     #: ... and this many accepted matches (a log with a scan per metre needs more than 3 of them).
     confirm_matches: int = 10
+    #: Odometry stalls (see the module doc): a step shorter than ``stall_xy`` (m) turning less than
+    #: ``stall_theta`` (rad) right after a step of ``stall_min_step`` (m) is a freeze; the prediction
+    #: goes on with that step for up to ``stall_travel`` (m).
+    stall_xy: float = 0.01
+    stall_theta: float = 0.1
+    stall_min_step: float = 0.05
+    stall_travel: float = 1.0
     #: Rejected scans in a row after which the track is lost.
     patience: int = 5
     #: Occlusion: the least fit, the largest fraction of beams seen through a wall, and the odometry
@@ -124,6 +136,8 @@ class PoseTracker:
         self.misses = 0
         self.occluded = False
         self._odom: np.ndarray | None = None
+        self._last_step: np.ndarray | None = None  # the last odometry step that moved (robot frame)
+        self._bridged = 0.0  # metres predicted through a stall that the odometry has not caught up
         self._moved = np.zeros(2)  # odometry distance and turn since the last accepted match
         self._unconfirmed_travel = 0.0  # odometry travel since an unconfirmed start
         self._unconfirmed_matches = 0  # and accepted matches
@@ -136,7 +150,7 @@ class PoseTracker:
     def predict(self, odom: np.ndarray) -> None:
         """Move the tracked pose by the odometry since the previous call."""
         if self.pose is not None and self._odom is not None:
-            step = relative(self._odom, odom)
+            step = self._bridge(relative(self._odom, odom))
             self.pose = compose(self.pose, step)
             self._moved += (np.hypot(step[0], step[1]), abs(step[2]))
             if not self.confirmed:
@@ -144,6 +158,24 @@ class PoseTracker:
                 self.confirmed = (self._unconfirmed_travel >= self.config.confirm_travel
                                   and self._unconfirmed_matches >= self.config.confirm_matches)
         self._odom = np.array(odom, dtype=np.float64)
+
+    def _bridge(self, step: np.ndarray) -> np.ndarray:
+        """The odometry's step, or the motion it missed in a stall, less what a catch-up repeats."""
+        cfg = self.config
+        moved = float(np.hypot(step[0], step[1]))
+        last = self._last_step
+        speed = 0.0 if last is None else float(np.hypot(last[0], last[1]))
+        if (moved < cfg.stall_xy and abs(step[2]) < cfg.stall_theta and speed >= cfg.stall_min_step
+                and self._bridged + speed <= cfg.stall_travel):
+            self._bridged += speed - moved
+            return np.array([last[0], last[1], step[2]])
+        if self._bridged > 0.0 and moved >= cfg.stall_xy:
+            keep = max(moved - self._bridged, min(moved, speed))
+            self._bridged = 0.0
+            step = np.array([step[0] * keep / moved, step[1] * keep / moved, step[2]])
+        if moved >= cfg.stall_xy:
+            self._last_step = step
+        return step
 
     def correct(self, points: np.ndarray, laser_xy=(0.0, 0.0)) -> MatchResult | None:
         """Match the predicted pose against the map (endpoints in the robot frame, laser at
