@@ -71,15 +71,14 @@ def surface_point(table, lo, hits, origin_x, origin_y, resolution, ix, iy, occup
         return False, 0.0, 0.0
     ly = iy & (TILE - 1)
     lx = ix & (TILE - 1)
-    hit_of, hit_blocks = hits
-    h = hit_of[t]
+    h = hits[0][t]  # indexed in place: unpacking into locals costs reference counting per call
     if h < 0:
         return False, 0.0, 0.0
-    n = hit_blocks[h, ly, lx, HIT_N]
+    n = hits[1][h, ly, lx, HIT_N]
     if lo[t, ly, lx] <= occupied_lo or n <= 0.0:
         return False, 0.0, 0.0
-    return (True, origin_x + ix * resolution + hit_blocks[h, ly, lx, HIT_X] / n,
-            origin_y + iy * resolution + hit_blocks[h, ly, lx, HIT_Y] / n)
+    return (True, origin_x + ix * resolution + hits[1][h, ly, lx, HIT_X] / n,
+            origin_y + iy * resolution + hits[1][h, ly, lx, HIT_Y] / n)
 
 
 @njit
