@@ -23,6 +23,11 @@ cells wide, the rest one cell. It returns the pose and the information matrix
 The observation log-likelihood of a pose is ``sum_b -min(r_b, d_max)^2 / (2 lsigma^2)``
 (a beam with no correspondence counts as ``d_max`` off), the truncated Gaussian
 beam model of GMapping (Grisetti et al. 2007).
+
+The per-beam and per-cell functions are inlined into the loops over beams and
+never bind an array to a local name: otherwise numba counts references to the
+map's arrays (atomic increments and decrements) on every call, which made the
+matcher up to 5x slower.
 """
 
 from __future__ import annotations
@@ -71,18 +76,17 @@ def surface_point(table, lo, hits, origin_x, origin_y, resolution, ix, iy, occup
         return False, 0.0, 0.0
     ly = iy & (TILE - 1)
     lx = ix & (TILE - 1)
-    hit_of, hit_blocks = hits
-    h = hit_of[t]
+    h = hits[0][t]  # not unpacked into locals (see the module's docstring)
     if h < 0:
         return False, 0.0, 0.0
-    n = hit_blocks[h, ly, lx, HIT_N]
+    n = hits[1][h, ly, lx, HIT_N]
     if lo[t, ly, lx] <= occupied_lo or n <= 0.0:
         return False, 0.0, 0.0
-    return (True, origin_x + ix * resolution + hit_blocks[h, ly, lx, HIT_X] / n,
-            origin_y + iy * resolution + hit_blocks[h, ly, lx, HIT_Y] / n)
+    return (True, origin_x + ix * resolution + hits[1][h, ly, lx, HIT_X] / n,
+            origin_y + iy * resolution + hits[1][h, ly, lx, HIT_Y] / n)
 
 
-@njit
+@njit(inline="always")
 def correspondence(table, lo, hits, origin_x, origin_y, resolution, ex, ey, fx, fy,
                    occupied_lo, free_lo, radius):
     """``(d2, ix, iy, sx, sy)``: the nearest admissible surface point to endpoint ``(ex, ey)``.
@@ -111,7 +115,7 @@ def correspondence(table, lo, hits, origin_x, origin_y, resolution, ex, ey, fx, 
     return best, bx, by, bsx, bsy
 
 
-@njit
+@njit(inline="always")
 def local_line(table, lo, hits, origin_x, origin_y, resolution, ix, iy, occupied_lo):
     """``(is_line, nx, ny, cx, cy)``: unit normal and centroid of the surface around cell ``(ix, iy)``."""
     n = 0
@@ -148,7 +152,7 @@ def local_line(table, lo, hits, origin_x, origin_y, resolution, ix, iy, occupied
     return True, -np.sin(angle), np.cos(angle), cx, cy
 
 
-@njit
+@njit(inline="always")
 def _residual(table, lo, hits, origin_x, origin_y, resolution, c, s, x, y, beam, params, radius, jac):
     """Residual(s) of one beam at pose ``(x, y, atan2(s, c))``.
 
