@@ -77,8 +77,9 @@ def slam_from_log(log_path, config: RBPFConfig | None = None, seed: int = 0,
                 odom = compose(anchor[1], relative(anchor[0], odom))
             if slam is None:
                 slam = RBPFSlam(config, seed=seed, initial_pose=odom, laser_mount=mount)
-                if resume is not None:
-                    slam.maps.seed_from_grid(resume.grid())
+                if resume is not None:  # the session's map with its endpoints, as the server resumes it
+                    grid = resume.grid()
+                    slam.maps.seed_from_grid(grid, resume.hit_sums(grid))
             is_update.append(slam.step(odom, record.scan))
             stamps.append(record.stamp.ipc_text)
             times.append(record.stamp.ipc_time)
