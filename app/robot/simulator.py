@@ -84,7 +84,10 @@ def wait_ready(handles: SimHandles, ready: Connection) -> None:
 def run_simulator(world_name: str, seed: int, robot_config: RobotConfig, link: str, scans: ScanSlot, truth,
                   stop, ready, parent_pid: int) -> None:
     """The simulator process: step physics in real time, scan, serve the MCU pty."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the server stops us through ``stop``
+    # The server stops us through ``stop``, after its robot link (a Ctrl-C or a service manager's
+    # SIGTERM reaches every process of the group at once) ...
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
     bind_to_parent(parent_pid)  # ... and we end when it dies
     from app.robot_link.virtual_mcu import VirtualMCU
     from slam_core.sim.lidar import Lidar, LidarConfig
