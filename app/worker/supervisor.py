@@ -267,7 +267,9 @@ class WorkerSupervisor:
         delay = 0.0 if self.health.healthy else restart_delay(self.settings.worker_restart_delay_s,
                                                               self.health.failures)
         if code == 0:
-            delay = max(delay, CLEAN_EXIT_GRACE_S)
+            if self._stopping.wait(CLEAN_EXIT_GRACE_S):
+                return  # the server's stop came: nothing to restart, nothing to say
+            delay = max(0.0, delay - CLEAN_EXIT_GRACE_S)
         log.warning("worker exited (code %s); restarting from the last checkpoint in %.1f s", code, delay)
         self._stopping.wait(delay)
         if not self._stopping.is_set():
