@@ -38,7 +38,7 @@ import numpy as np
 
 from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.rbpf import RBPFConfig
-from slam_core.rbpf.hit_render import add_hit_sums
+from slam_core.rbpf.hit_render import hit_sums_on
 from slam_core.rbpf.laser_mount import LaserMount
 from slam_core.scan import Scan
 
@@ -82,10 +82,8 @@ class MappingSession:
     def hit_sums(self, grid: OccupancyGrid) -> np.ndarray:
         """The updates' per-cell hit sums ``(ny, nx, 3)`` on ``grid``'s cells (as :meth:`grid` renders
         them), for a particle filter seeded with that map (:mod:`slam_core.rbpf.hit_render`)."""
-        hits = np.zeros((*grid.shape, 3), np.float32)
-        add_hit_sums(hits, grid.origin, grid.resolution, self.laser_mount.laser_poses(self.poses), self.scans,
-                     self.config.sensor.usable_range)
-        return hits
+        return hit_sums_on(grid, self.laser_mount.laser_poses(self.poses), self.scans,
+                           self.config.sensor.usable_range)
 
 
 def write_session(session: MappingSession, file, compress: bool = True) -> None:

@@ -38,7 +38,7 @@ from slam_core.graph.loop_closure import LoopMemory, close_loops
 from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.pipelines.log_slam import best_updates
 from slam_core.rbpf import RBPFConfig, RBPFSlam
-from slam_core.rbpf.hit_render import add_hit_sums
+from slam_core.rbpf.hit_render import hit_sums_on
 from slam_core.rbpf.laser_mount import LaserMount
 from slam_core.scan import Scan
 from slam_core.session import MappingSession
@@ -151,9 +151,7 @@ class LiveBackEnd:
         if memory is None:
             self._full_at = len(poses)
         grid = render(c, self.mount, closed.poses, scans, layout)
-        hits = np.zeros((*grid.shape, 3), np.float32)
-        add_hit_sums(hits, grid.origin, c.resolution, self.mount.laser_poses(closed.poses), scans,
-                     c.sensor.usable_range)
+        hits = hit_sums_on(grid, self.mount.laser_poses(closed.poses), scans, c.sensor.usable_range)
         result = BackEndResult(closed.poses, poses, closed.loop_edges, grid, time.perf_counter() - started,
                                hits, grid.origin.copy())
         with self._lock:

@@ -53,3 +53,10 @@ def add_hit_sums(hits: np.ndarray, origin, resolution: float, laser_poses: np.nd
                              (HIT_Y, end[:, 1] - (origin[1] + iy * resolution)), (HIT_N, None)):
         flat[:, channel] += np.bincount(cell, weights, minlength=ny * nx).astype(hits.dtype)
     return int(np.count_nonzero(~inside))
+
+
+def hit_sums_on(grid, laser_poses: np.ndarray, scans: list[Scan], usable_range: float) -> np.ndarray:
+    """Fresh hit sums ``(ny, nx, 3)`` of ``scans`` (from ``laser_poses``) on ``grid``'s cells."""
+    hits = np.zeros((*grid.shape, 3), np.float32)
+    add_hit_sums(hits, grid.origin, grid.resolution, laser_poses, scans, usable_range)
+    return hits
