@@ -1,10 +1,10 @@
-"""Latest: the thread-safe newest-value holder shared by grabbers and workers."""
+"""Latest and Backlog: the thread-safe holders shared by grabbers and workers."""
 
 from __future__ import annotations
 
 import threading
 
-from app.grabbers.shared import Latest
+from app.grabbers.shared import Backlog, Latest
 
 
 def test_empty_then_put_then_get():
@@ -40,3 +40,33 @@ def test_concurrent_writers_never_lose_a_sequence_number():
     for w in writers:
         w.join()
     assert box.get()[0] == 2000
+
+
+def test_a_backlog_gives_what_a_reader_missed_in_order_up_to_its_size():
+    box: Backlog[str] = Backlog(3)
+    assert box.get() == (0, None) and box.wait_after(0, timeout=0.01) == []
+    for value in "abcde":
+        box.put(value)
+    assert box.get() == (5, "e")
+    assert box.wait_after(0, timeout=0.01) == [(3, "c"), (4, "d"), (5, "e")]  # the oldest two fell out
+    assert box.wait_after(4, timeout=0.01) == [(5, "e")]
+    assert box.wait_after(5, timeout=0.01) == []
+
+
+def test_a_backlog_reader_waiting_in_another_thread_gets_every_value_of_a_burst():
+    box: Backlog[int] = Backlog(64)
+    got: list[int] = []
+
+    def read() -> None:
+        last = 0
+        while len(got) < 50:
+            held = box.wait_after(last, timeout=5.0)
+            got.extend(value for _, value in held)
+            last = held[-1][0] if held else last
+
+    reader = threading.Thread(target=read)
+    reader.start()
+    for i in range(50):
+        box.put(i)
+    reader.join(5.0)
+    assert got == list(range(50))

@@ -1,4 +1,4 @@
-"""The range-scan grabber: scans from the simulator's shared slot or a real sensor source to a ``Latest``.
+"""The range-scan grabber: scans from the simulator's shared slot or a real sensor source to the worker.
 
 A real robot names its sensor in ``HOMEBOT_SENSOR_SOURCE`` as ``module:callable``; the
 callable returns an iterator of :class:`slam_core.scan.Scan` (a lidar driver, or a
@@ -12,7 +12,7 @@ import logging
 import threading
 from collections.abc import Callable, Iterator
 
-from app.grabbers.shared import Latest
+from app.grabbers.shared import Backlog, Latest
 from app.robot.scan_slot import ScanSlot
 from slam_core.scan import Scan
 
@@ -36,7 +36,7 @@ class ScanGrabber:
     """A thread that publishes every scan from ``slot`` (simulator) or ``source`` (real sensor)."""
 
     def __init__(self, slot: ScanSlot | None = None, source: Callable[[], Iterator[Scan]] | None = None,
-                 output: Latest[Scan] | None = None):
+                 output: Latest[Scan] | Backlog[Scan] | None = None):
         if (slot is None) == (source is None):
             raise ValueError("give exactly one of a scan slot or a sensor source")
         self.scans = output if output is not None else Latest()

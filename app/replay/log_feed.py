@@ -3,10 +3,10 @@
 Each laser record becomes one odometry reading (the record's odometry pose, stamped with
 its ipc timestamp) put into the worker's :class:`OdometryHistory` (and, through a
 :class:`~app.grabbers.shared.Fanout`, the server's odometry ring), then its scan (same
-stamp) put into the scan :class:`Latest`, so the worker pairs them exactly as it pairs a
+stamp) put into the scan :class:`~app.grabbers.shared.Backlog`, so the worker pairs them exactly as it pairs a
 real robot's. Records are played in the log's own timing divided by ``speed``; with
 ``speed=None`` ("max") each record waits until the worker has stepped the previous one,
-so no scan is dropped. The scan ``Latest``'s sequence number of a record is its index + 1.
+so no scan is dropped. The scan backlog's sequence number of a record is its index + 1.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from app.grabbers.odometry_history import OdometryHistory
-from app.grabbers.shared import Fanout, Latest
+from app.grabbers.shared import Backlog, Fanout
 from slam_core.io.carmen import LaserRecord, TruncatedLogError, laser_records
 
 #: How often a paused feed looks at its stop flag (s).
@@ -61,7 +61,7 @@ class LogReplay:
     """A thread feeding ``records`` to ``odometry`` and ``scans``; see the module docstring."""
 
     def __init__(self, records: list[LaserRecord], speed: float | None, odometry: OdometryHistory | Fanout,
-                 scans: Latest):
+                 scans: Backlog):
         if speed is not None and speed <= 0:
             raise ValueError(f"replay speed must be positive, got {speed}")
         self.records = records

@@ -30,7 +30,7 @@ from app.core.rate import SlidingRate
 from app.grabbers.odometry_history import OdometryHistory
 from app.grabbers.ring_odometry_grabber import RingOdometryGrabber
 from app.grabbers.scan_grabber import ScanGrabber, load_sensor_source
-from app.grabbers.shared import Latest
+from app.grabbers.shared import Backlog
 from app.worker.checkpoint import load_checkpoint, save_exit_map, save_pose, save_snapshot
 from app.worker.estimators import (
     Checkpoint,
@@ -59,7 +59,7 @@ from app.worker.messages import (
     WorkerState,
     waiting_commands,
 )
-from app.worker.pairing import Pair, StampedPairing
+from app.worker.pairing import SCAN_BACKLOG, Pair, StampedPairing
 from app.worker.relocalize import Relocalizer
 from app.worker.relocalizing import Relocalizing
 from app.worker.replay_driver import ReplayDriver
@@ -118,7 +118,7 @@ class Worker:
         self.stop = threading.Event()
         s = self.settings
         self.shm = SharedMap(s.map_capacity_cells, s.tile_size, name=spec.shm_name)
-        self.scans = Latest()
+        self.scans = Backlog(SCAN_BACKLOG)
         self.replay: ReplayDriver | None = None
         self.anchor: tuple[np.ndarray, np.ndarray] | None = None
         self.mount = laser_mount(s)  # the scan's points are drawn from the laser's pose

@@ -14,7 +14,7 @@ from dataclasses import asdict
 
 from app.core.config import Settings
 from app.grabbers.odometry_history import OdometryHistory
-from app.grabbers.shared import Fanout, Latest
+from app.grabbers.shared import Backlog, Fanout
 from app.replay.log_feed import LoggedOdometry, LogReplay, read_laser_records, replay_name
 from app.replay.recording import ReplayRecording
 from app.robot.odometry_ring import OdometryRing
@@ -25,7 +25,7 @@ from slam_core.datasets import resolve_log
 class ReplayDriver:
     """``settings.replay`` played into ``scans`` and ``ring``; see the module docstring."""
 
-    def __init__(self, settings: Settings, scans: Latest, ring: OdometryRing):
+    def __init__(self, settings: Settings, scans: Backlog, ring: OdometryRing):
         path = resolve_log(settings.replay)
         self.records, warnings = read_laser_records(path)
         name = replay_name(settings.replay)
