@@ -8,7 +8,10 @@ warm cache). Stress logs are ``<stress-dir>/<name>/<name>.clf.bz2`` with their
 ``<name>.relations``; run it with ``nice -n 10`` on a shared machine.
 
     python benchmarks/slam_datasets.py [--particles 30] [--logs intel mit-csail belgioioso ...]
-        [--seeds 0 1 2] [--stress-dir ../shared/datasets/stress]
+        [--seeds 0 1 2] [--stress-dir ../shared/datasets/stress] [--config config.json]
+
+``--config`` runs every log with that SLAM config file (``homebot slam --config``; keys left
+out keep their defaults), to judge a change of settings on every log at once.
 """
 
 from __future__ import annotations
@@ -85,6 +88,7 @@ def main() -> None:
     parser.add_argument("--seeds", nargs="+", type=int, default=[0], help="one run per seed")
     parser.add_argument("--stress-dir", type=Path, default=STRESS_DIR)
     parser.add_argument("--skip-compile", action="store_true", help="skip the cold / warm start-up runs")
+    parser.add_argument("--config", type=Path, help="a SLAM config file for every run")
     args = parser.parse_args()
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
           f"python {platform.python_version()}")
@@ -101,8 +105,9 @@ def main() -> None:
             log, relations = log_and_relations(name, args.stress_dir)
             out = tmp / f"{name}-{seed}"
             cpu = children_cpu()
+            config = ["--config", str(args.config.resolve())] if args.config else []
             homebot("slam", log, "--out", str(out), "--particles", str(args.particles),
-                    "--seed", str(seed))
+                    "--seed", str(seed), *config)
             cpu = children_cpu() - cpu
             stats = json.loads((out / "stats.json").read_text())
             err = evaluate(out / "trajectory.txt", relations)
