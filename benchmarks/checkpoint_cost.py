@@ -9,7 +9,7 @@ the map's size, not on the poses' accuracy); the flat's simulated tour is record
   its hit sums (:func:`slam_core.rbpf.hit_render.add_hit_sums`, every beam of every update);
 - in the worker's thread, per snapshot: the published map's hit sums (the solve's, pasted, and
   one submap of updates since added) and writing the snapshot, with the session beside it and
-  without (format 1's contents);
+  without;
 - at a restart: loading the newest snapshot with its session.
 
     python benchmarks/checkpoint_cost.py [--logs flat mit-csail] [--repeat 5]
@@ -101,7 +101,7 @@ def measure(session: MappingSession, directory: Path, repeat: int) -> dict:
         hits = timed(runs, f"worker, per snapshot: hit sums (+{c.loop_closure.submap_updates} updates)",
                      hit_sums, session, grid, last_submap, solved)
         checkpoint = Checkpoint("mapping", session.end_pose, grid, True, None, (0, 0), hits)
-        timed(runs, "worker, per snapshot: write, no session (format 1)",
+        timed(runs, "worker, per snapshot: write, no session",
               save_snapshot, directory / f"without-{k}", checkpoint)
         generation = timed(runs, "worker, per snapshot: write, with session",
                            save_snapshot, directory / f"with-{k}", replace(checkpoint, session=session))

@@ -36,6 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
+from slam_core.io.npz import write_npz
 from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.rbpf import RBPFConfig
 from slam_core.rbpf.hit_render import hit_sums_on
@@ -86,7 +87,7 @@ class MappingSession:
                            self.config.sensor.usable_range)
 
 
-def write_session(session: MappingSession, file, compress: bool = True) -> None:
+def write_session(session: MappingSession, file) -> None:
     """Write ``session``'s arrays (the format above) to an open binary ``file``."""
     offsets = np.concatenate([[0], np.cumsum([len(s) for s in session.scans])]).astype(np.int64)
     arrays = {
@@ -100,7 +101,7 @@ def write_session(session: MappingSession, file, compress: bool = True) -> None:
         "stamps": np.array([s.timestamp for s in session.scans], float),
         "end_pose": session.end_pose,
     }
-    (np.savez_compressed if compress else np.savez)(file, **arrays)
+    write_npz(file, arrays)
 
 
 def save_session(session: MappingSession, path: Path) -> Path:

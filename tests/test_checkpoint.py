@@ -10,6 +10,8 @@ import pytest
 
 from app.worker.checkpoint import (
     GENERATIONS_KEPT,
+    VERSION,
+    dense_hits,
     generations,
     load_checkpoint,
     quarantine_newest,
@@ -173,12 +175,24 @@ def _rewrite_state(path, change) -> None:
     np.savez(path, **{**data, "state": np.array(json.dumps(state))})
 
 
-def test_a_format_1_snapshot_still_loads_with_its_map_and_hit_sums(tmp_path, mapped_room):
-    """Format 1 (before versions): the filter's own map and pose, no session."""
+def _with_dense_hits(path) -> None:
+    """The snapshot at ``path`` with its hit sums dense, as formats 1 and 2 kept them."""
+    data = dict(np.load(path))
+    data["hit_sums"] = dense_hits(data["log_odds"].shape, data.pop("hit_cells"), data.pop("hit_values"))
+    np.savez_compressed(path, **data)
+
+
+@pytest.mark.parametrize("version", [1, 2])
+def test_a_snapshot_of_an_older_format_still_loads_with_its_map_and_hit_sums(tmp_path, mapped_room, version):
+    """Format 1 (before versions): the filter's own map and pose, no session; both dense hit sums."""
     saved = checkpoint_of(mapped_room, pose=(1.0, 0.5, 0.2))
     generation = save_snapshot(tmp_path, saved)
     path = snapshot_path(tmp_path, generation)
-    _rewrite_state(path, lambda state: (state.pop("version"), state.pop("session")))
+    _with_dense_hits(path)
+    if version == 1:
+        _rewrite_state(path, lambda state: (state.pop("version"), state.pop("session")))
+    else:
+        _rewrite_state(path, lambda state: state.update(version=2))
     restored = load_checkpoint(tmp_path, CAPACITY)
     assert restored.generation == generation and not restored.quarantined
     loaded = restored.checkpoint
@@ -190,11 +204,22 @@ def test_a_format_1_snapshot_still_loads_with_its_map_and_hit_sums(tmp_path, map
 def test_a_snapshot_of_a_newer_format_is_refused_with_its_format_named(tmp_path, mapped_room):
     first = save_snapshot(tmp_path, checkpoint_of(mapped_room, pose=(1.0, 0.5, 0.2)))
     newest = save_snapshot(tmp_path, checkpoint_of(mapped_room, pose=(2.0, 0.5, 0.2)))
-    _rewrite_state(snapshot_path(tmp_path, newest), lambda state: state.update(version=3))
+    _rewrite_state(snapshot_path(tmp_path, newest), lambda state: state.update(version=VERSION + 1))
     restored = load_checkpoint(tmp_path, CAPACITY)
     assert restored.generation == first and np.allclose(restored.checkpoint.pose, (1.0, 0.5, 0.2))
     [(aside, reason)] = restored.quarantined
-    assert "checkpoint format 3" in reason and aside.exists()
+    assert f"checkpoint format {VERSION + 1}" in reason and aside.exists()
+
+
+def test_hit_sums_of_cells_outside_the_map_are_refused(tmp_path, mapped_room):
+    first = save_snapshot(tmp_path, checkpoint_of(mapped_room, pose=(1.0, 0.5, 0.2)))
+    newest = save_snapshot(tmp_path, checkpoint_of(mapped_room, pose=(2.0, 0.5, 0.2)))
+    path = snapshot_path(tmp_path, newest)
+    data = dict(np.load(path))
+    data["hit_cells"][-1] = data["log_odds"].size  # one past the last cell
+    np.savez(path, **data)
+    restored = load_checkpoint(tmp_path, CAPACITY)
+    assert restored.generation == first and "outside the map" in restored.quarantined[0][1]
 
 
 @pytest.mark.parametrize("x", [500.0, -5.8e16, float("inf")])
