@@ -16,7 +16,7 @@ against everything mapped before. A snapshot without ``"version"`` (format 1: th
 map and pose, no session) still loads, a consistent map and pose in the filter's frame, and its
 back end starts afresh. Format 3 keeps the hit sums of the cells an echo fell into only
 (``hit_cells``, flat indices, and their ``hit_values``; format 2 kept them dense) and is deflated
-at level 1 (:mod:`slam_core.io.npz`): a building floor's snapshot costs a quarter of the CPU time.
+at level 1 (:mod:`slam_core.io.npz`): a building floor's snapshot costs 40 % of the CPU time.
 A snapshot of a newer format, or whose session is missing or damaged, is refused (and set aside
 as below) rather than read wrongly.
 
