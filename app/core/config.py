@@ -69,7 +69,9 @@ class Settings(BaseSettings):
     max_particles_streamed: int = Field(300, ge=1)
 
     tile_size: int = 64
-    map_capacity_cells: int = Field(2048 * 2048, ge=64 * 64)
+    #: Cells of the shared map block: 8192 x 8192 (a 409 m square at 5 cm) fits a campus; the block's pages
+    #: are only allocated where the map is written, so a flat costs what it covers.
+    map_capacity_cells: int = Field(8192 * 8192, ge=64 * 64)
     mcl_min_particles: int = Field(300, ge=10)
     mcl_max_particles: int = Field(3000, ge=10)
     checkpoint_s: float = Field(1.0, gt=0.0)

@@ -1,5 +1,9 @@
 """The room service: segments the live map every few seconds (in a thread) when it changed.
 
+Segmenting a large map takes seconds, so the pause between two refreshes grows with the last
+one's cost (at most :data:`MAX_SHARE` of the time is spent segmenting), and a map larger than
+:data:`MAX_ROOM_CELLS` (far beyond any home: a campus) is not segmented at all.
+
 It keeps the current :class:`~slam_core.rooms.layout.RoomLayout` (ids, names and edits that
 last as the map grows), stores it per map (:class:`~app.db.rooms.RoomStore`), answers which
 room a point is in, and where to drive to reach a room (a point inside it the robot can reach).
@@ -9,6 +13,7 @@ from __future__ import annotations
 
 import asyncio
 import logging
+import time
 from collections.abc import Callable
 
 import numpy as np
@@ -24,6 +29,15 @@ from slam_core.rooms.target import room_target
 log = logging.getLogger(__name__)
 
 REFRESH_S = 5.0
+#: Largest share of the time spent segmenting: the next refresh waits the last one's cost over this.
+MAX_SHARE = 0.1
+#: Maps with more cells are not segmented (4096 x 4096 cells: 4 ha at 5 cm).
+MAX_ROOM_CELLS = 4096 * 4096
+
+
+def pause_after(cost_s: float) -> float:
+    """Seconds to wait after a refresh that took ``cost_s``: :data:`REFRESH_S`, longer for costly ones."""
+    return max(REFRESH_S, cost_s / MAX_SHARE)
 
 
 class RoomService:
@@ -35,27 +49,37 @@ class RoomService:
         self.key = LIVE
         self.layout: RoomLayout | None = store.load(LIVE)
         self._segmented: OccupancyGrid | None = None
+        self._too_large = False  # the last map was over MAX_ROOM_CELLS (said once)
         self._lock = asyncio.Lock()
 
     async def run(self) -> None:
         """Refresh until cancelled."""
         while True:
+            started = time.monotonic()
             try:
                 await self.refresh()
             except Exception:  # a segmentation bug must not stop the server; try again later
                 log.exception("room segmentation failed")
-            await asyncio.sleep(REFRESH_S)
+            await asyncio.sleep(pause_after(time.monotonic() - started))
 
     async def refresh(self) -> None:
         """Segment the current map if it changed since the last time."""
         grid = await asyncio.to_thread(self._grid)  # rebuilt from the shared map: not on the loop
-        if grid is None or grid is self._segmented:
+        if grid is None or grid is self._segmented or self._oversized(grid):
             return
         async with self._lock:
             previous = self.layout
             self.layout = await asyncio.to_thread(lambda: follow(previous, segment_rooms(grid), grid))
             self._segmented = grid
             await asyncio.to_thread(self.store.save, self.key, self.layout)
+
+    def _oversized(self, grid: OccupancyGrid) -> bool:
+        too_large = grid.data.size > MAX_ROOM_CELLS
+        if too_large and not self._too_large:
+            log.warning("the map has %d cells, over %d: its rooms are not segmented", grid.data.size,
+                        MAX_ROOM_CELLS)
+        self._too_large = too_large
+        return too_large
 
     async def edit(self, change: Callable[[RoomLayout], RoomLayout]) -> RoomLayout:
         """Apply one edit (rename, merge, split) and store it; ``RoomEditError`` when impossible."""
