@@ -94,6 +94,17 @@ def test_a_writer_killed_mid_write_is_not_read_as_a_map(shared):
     assert reader.snapshot() is not None
 
 
+def test_a_snapshot_rebuilds_the_occupancy_of_every_cell_value(shared):
+    owner, reader = shared
+    values = np.arange(256, dtype=np.uint8).reshape(16, 16)
+    owner.publish(values, (1.0, -2.0), 0.05)
+    grid = reader.snapshot().grid()
+    assert grid.data.dtype == np.float32 and tuple(grid.origin) == (1.0, -2.0)
+    percent = np.clip(values / 100.0, 0.01, 0.99)
+    expected = np.where(values == UNKNOWN, 0.0, np.log(percent / (1.0 - percent)))
+    np.testing.assert_allclose(grid.data, expected, atol=1e-6)
+
+
 def test_grid_cells_percent_and_unknown():
     grid = OccupancyGrid(0.1, shape=(2, 2))
     grid.data[0, 0] = 10.0

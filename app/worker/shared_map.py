@@ -42,6 +42,18 @@ def grid_cells(grid: OccupancyGrid) -> np.ndarray:
     return cells
 
 
+def _cell_logodds() -> np.ndarray:
+    """Log-odds of each ``uint8`` cell value (percent clipped to 1..99; :data:`UNKNOWN`: 0)."""
+    p = np.clip(np.arange(256) / 100.0, 0.01, 0.99)
+    table = np.log(p / (1.0 - p)).astype(np.float32)
+    table[UNKNOWN] = 0.0
+    return table
+
+
+#: Looked up per cell: no whole-map float64 temporary when the server rebuilds a large map.
+_CELL_LOGODDS = _cell_logodds()
+
+
 def tile_count(width: int, height: int, tile: int) -> tuple[int, int]:
     return math.ceil(width / tile), math.ceil(height / tile)
 
@@ -61,10 +73,7 @@ class MapSnapshot:
 
     def grid(self) -> OccupancyGrid:
         """The map as an :class:`OccupancyGrid` (log-odds rebuilt from the percentages)."""
-        p = np.clip(self.cells.astype(np.float64) / 100.0, 0.01, 0.99)
-        logodds = np.log(p / (1.0 - p)).astype(np.float32)
-        logodds[self.cells == UNKNOWN] = 0.0
-        return OccupancyGrid(self.resolution, self.origin, data=logodds)
+        return OccupancyGrid(self.resolution, self.origin, data=_CELL_LOGODDS[self.cells])
 
 
 class SharedMap:
