@@ -6,7 +6,10 @@ from __future__ import annotations
 
 import bz2
 import gzip
+from math import isqrt
 from pathlib import Path
+
+from app.core.config import Settings
 
 GOOD_YAML = "image: {image}\nresolution: 0.05\norigin: [0.0, 0.0, 0.0]\nnegate: 0\n" \
             "occupied_thresh: 0.65\nfree_thresh: 0.196\nmode: trinary\n"
@@ -70,6 +73,9 @@ BAD_WS_MESSAGES = [
     ("x" * 5000, "invalid_request"),
 ]
 
+#: one more cell a side than the server's default map capacity (and under Pillow's bomb limit)
+_OVER_CAPACITY = isqrt(Settings.model_fields["map_capacity_cells"].default) + 1
+
 #: case -> (YAML text, image bytes, words the error must contain)
 BAD_MAPS = {
     "inf_resolution": (GOOD_YAML.replace("0.05", ".inf"), GOOD_PGM, "resolution must be finite"),
@@ -80,7 +86,7 @@ BAD_MAPS = {
     "nan_threshold": (GOOD_YAML.replace("0.65", ".nan"), GOOD_PGM, "occupied_thresh must be finite"),
     "swapped_thresholds": (GOOD_YAML.replace("0.65", "0.1"), GOOD_PGM, "free_thresh < occupied_thresh"),
     "bomb": (GOOD_YAML, b"P5\n200000 200000\n255\n" + bytes(64), "too large"),
-    "oversized": (GOOD_YAML, b"P5\n5000 5000\n255\n" + bytes(64), "too large"),
+    "oversized": (GOOD_YAML, b"P5\n%d %d\n255\n" % (_OVER_CAPACITY, _OVER_CAPACITY) + bytes(64), "too large"),
     "truncated_image": (GOOD_YAML, b"P5\n100 100\n255\n" + bytes(10), "cannot read map image"),
     "not_an_image": (GOOD_YAML, b"hello, I am not a picture", "cannot read map image"),
     "binary_yaml": ("\x00\x01\x02\xff", GOOD_PGM, "cannot read map YAML"),
