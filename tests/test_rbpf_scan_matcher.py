@@ -6,6 +6,7 @@ import pytest
 from slam_core.geometry import relative
 from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.rbpf.config import MatcherParams
+from slam_core.rbpf.proposal import match_starts
 from slam_core.rbpf.scan_matcher import local_line, match, pose_likelihood
 from slam_core.rbpf.tiled_map import TILE, TiledMaps
 from tests.synthetic_room import room_scan
@@ -104,3 +105,17 @@ def test_scattered_points_are_no_line():
     maps, cells = _map_with_surface_points(points)
     occupied = MatcherParams().packed()[2]
     assert not local_line(*args_of(maps), *cells[0], occupied)[0]
+
+
+def test_parallel_matches_from_several_starts_equal_the_serial_ones(room_map):
+    params = MatcherParams().packed()
+    beams = beams_of(room_scan(TRUE_POSE, 180))
+    rng = np.random.default_rng(4)
+    starts = TRUE_POSE + rng.normal(0, [0.05, 0.05, 0.05], (7, 3))
+    poses, lls, counts = np.empty((7, 3)), np.empty(7), np.empty(7, np.int64)
+    match_starts(*args_of(room_map), starts, beams, params, 10, 3, poses, lls, counts)
+    for i, start in enumerate(starts):
+        x, y, th, _, n = match(*args_of(room_map), *start, beams, params, 10, 3)
+        assert (poses[i].tolist(), counts[i]) == ([x, y, th], n)
+        assert lls[i] == pose_likelihood(*args_of(room_map), x, y, th, beams, params)[0]
+    assert len(np.unique(poses[:, 0])) > 1  # the starts did lead to different results
