@@ -34,13 +34,13 @@ HIT_X, HIT_Y, HIT_N = 0, 1, 2
 MIN_SLICE = 16
 
 
-@njit(parallel=True)
+@njit
 def _demand(tables, refs, hit_of, origin_x, origin_y, tile_size, poses, reach, beams, tiles, blocks):
     """Upper bounds of the tiles and hit blocks a scan from each map's pose can take: the tiles
     within ``reach`` that are not that map's own (missing or shared), and the tiles there
     without a hit block of their own, at most one per beam plus the shared ones with one."""
     n_ty, n_tx = tables.shape[1], tables.shape[2]
-    for p in prange(poses.shape[0]):
+    for p in range(poses.shape[0]):  # serial: a parallel launch costs more than this loop
         tx0 = max(int(np.floor((poses[p, 0] - reach - origin_x) / tile_size)) - 1, 0)
         ty0 = max(int(np.floor((poses[p, 1] - reach - origin_y) / tile_size)) - 1, 0)
         tx1 = min(int(np.floor((poses[p, 0] + reach - origin_x) / tile_size)) + 1, n_tx - 1)
