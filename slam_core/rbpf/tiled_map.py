@@ -231,9 +231,16 @@ def _retable(tables, refs, free_stack, free_top, hit_of, hit_free_stack, hit_fre
 
 def _slices(free: int, want: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
     """Consecutive slices ``[bottom[p], ceiling[p])`` of the top of a free stack of ``free``
-    entries, ``want[p]`` long, or shorter in proportion when they do not fit; and their base."""
+    entries, ``want[p]`` long; when they do not fit, each gets ``MIN_SLICE`` (if that fits)
+    and a share of the rest in proportion to what it wants. Also their base."""
     total = int(want.sum())
-    sizes = want if total <= free else want * free // total
+    sizes = want
+    if total > free:
+        least = np.minimum(want, MIN_SLICE)
+        if int(least.sum()) > free:
+            least = np.zeros_like(want)
+        more = want - least
+        sizes = least + more * (free - int(least.sum())) // max(int(more.sum()), 1)
     base = free - int(sizes.sum())
     ceiling = base + np.cumsum(sizes)
     return ceiling - sizes, ceiling, base
@@ -352,11 +359,11 @@ class TiledMaps:
             pending = start[:, 0] >= 0
             if not pending.any():
                 return
-            # Bounds that fit are taken whole next time (they are upper bounds); else a quarter more.
+            # The maps left go on with what the others left; the pools grow only when fewer
+            # than MIN_SLICE entries each are free, so that they grow no sooner than needed.
             tiles = np.where(pending, np.maximum(tiles, MIN_SLICE), 0)
             blocks = np.where(pending, np.maximum(blocks, MIN_SLICE), 0)
-            self._reserve(min(int(tiles.sum()), int(self.free_top[0]) + 1),
-                          min(int(blocks.sum()), int(self.hit_free_top[0]) + 1))
+            self._reserve(MIN_SLICE * int(pending.sum()))
 
     def resample(self, parents: np.ndarray) -> None:
         """Map ``i`` becomes a copy of map ``parents[i]`` (sharing every tile)."""
