@@ -279,6 +279,9 @@ class TiledMaps:
         self.hit_free_top = np.array([capacity], np.int64)
         self.tables = np.full((n_maps, 0, 0), -1, np.int32)
         self.origin = np.zeros(2)
+        #: Most tiles and hit blocks one map took in the last integrate: slices of twice that
+        #: (and MIN_SLICE) keep the maps taking from the stacks' tops, the entries already touched.
+        self._took = np.zeros(2, np.int64)
 
     @property
     def n_maps(self) -> int:
@@ -332,8 +335,9 @@ class TiledMaps:
         parallel, a shared tile copied when a write first changes it.
 
         Each map takes its new tiles and hit blocks from a slice of the free stacks of its own,
-        sized by :func:`_demand` (or in proportion to it when the pools hold fewer); a map whose
-        slice runs out stops, and goes on where it stopped once the pools have grown.
+        sized by :func:`_demand`'s bound or twice what a map took last time, whichever is less
+        (shorter when the pools hold fewer); a map whose slice runs out stops, and goes on where
+        it stopped with what the others left, or once the pools have grown.
         """
         poses = np.ascontiguousarray(poses, dtype=np.float64).reshape(self.n_maps, 3)
         m = self.model
@@ -344,7 +348,11 @@ class TiledMaps:
         blocks = np.empty(self.n_maps, np.int64)
         _demand(self.tables, self.refs, self.hit_of, self.origin[0], self.origin[1], self.tile_size, poses,
                 reach, len(scan.angles), tiles, blocks)
+        bounds = tiles, blocks
+        tiles = np.minimum(tiles, 2 * self._took[0] + MIN_SLICE)
+        blocks = np.minimum(blocks, 2 * self._took[1] + MIN_SLICE)
         start = np.zeros((self.n_maps, 2), np.int64)
+        took = np.zeros((self.n_maps, 2), np.int64)
         while True:
             bottom, ceiling, base = _slices(int(self.free_top[0]), tiles)
             hit_bottom, hit_ceiling, hit_base = _slices(int(self.hit_free_top[0]), blocks)
@@ -356,13 +364,16 @@ class TiledMaps:
                        scan.range_max, m.usable_range, m.no_return_range, m.l_free, m.l_occ, m.l_min, m.l_max)
             _settle(self.refs, self.hit_of, source, self.free_stack, self.free_top, base, bottom, ceiling,
                     top, self.hit_free_stack, self.hit_free_top, hit_base, hit_bottom, hit_top)
+            took[:, 0] += ceiling - top
+            took[:, 1] += hit_ceiling - hit_top
             pending = start[:, 0] >= 0
             if not pending.any():
+                self._took = took.max(axis=0)
                 return
-            # The maps left go on with what the others left; the pools grow only when fewer
-            # than MIN_SLICE entries each are free, so that they grow no sooner than needed.
-            tiles = np.where(pending, np.maximum(tiles, MIN_SLICE), 0)
-            blocks = np.where(pending, np.maximum(blocks, MIN_SLICE), 0)
+            # The maps left go on, wanting twice as much, with what the others left; the pools grow
+            # only when fewer than MIN_SLICE entries each are free: no sooner than needed.
+            tiles = np.where(pending, np.maximum(np.minimum(2 * tiles, bounds[0]), MIN_SLICE), 0)
+            blocks = np.where(pending, np.maximum(np.minimum(2 * blocks, bounds[1]), MIN_SLICE), 0)
             self._reserve(MIN_SLICE * int(pending.sum()))
 
     def resample(self, parents: np.ndarray) -> None:
