@@ -279,8 +279,8 @@ class TiledMaps:
         self.hit_free_top = np.array([capacity], np.int64)
         self.tables = np.full((n_maps, 0, 0), -1, np.int32)
         self.origin = np.zeros(2)
-        #: Most tiles and hit blocks one map took in the last integrate: slices of twice that
-        #: (and MIN_SLICE) keep the maps taking from the stacks' tops, the entries already touched.
+        #: Tiles and hit blocks a map took in the last integrate, on average: slices of that and
+        #: MIN_SLICE keep the maps taking from the stacks' tops, the entries already touched.
         self._took = np.zeros(2, np.int64)
 
     @property
@@ -335,7 +335,7 @@ class TiledMaps:
         parallel, a shared tile copied when a write first changes it.
 
         Each map takes its new tiles and hit blocks from a slice of the free stacks of its own,
-        sized by :func:`_demand`'s bound or twice what a map took last time, whichever is less
+        sized by :func:`_demand`'s bound or what a map took last time (and MIN_SLICE), whichever is less
         (shorter when the pools hold fewer); a map whose slice runs out stops, and goes on where
         it stopped with what the others left, or once the pools have grown.
         """
@@ -349,8 +349,8 @@ class TiledMaps:
         _demand(self.tables, self.refs, self.hit_of, self.origin[0], self.origin[1], self.tile_size, poses,
                 reach, len(scan.angles), tiles, blocks)
         bounds = tiles, blocks
-        tiles = np.minimum(tiles, 2 * self._took[0] + MIN_SLICE)
-        blocks = np.minimum(blocks, 2 * self._took[1] + MIN_SLICE)
+        tiles = np.minimum(tiles, self._took[0] + MIN_SLICE)
+        blocks = np.minimum(blocks, self._took[1] + MIN_SLICE)
         start = np.zeros((self.n_maps, 2), np.int64)
         took = np.zeros((self.n_maps, 2), np.int64)
         while True:
@@ -368,7 +368,7 @@ class TiledMaps:
             took[:, 1] += hit_ceiling - hit_top
             pending = start[:, 0] >= 0
             if not pending.any():
-                self._took = took.max(axis=0)
+                self._took = took.sum(axis=0) // self.n_maps
                 return
             # The maps left go on, wanting twice as much, with what the others left; the pools grow
             # only when fewer than MIN_SLICE entries each are free: no sooner than needed.
