@@ -30,6 +30,9 @@ TILE = 1 << TILE_BITS
 GROW_MARGIN_TILES = 4
 #: Hit sums: x, y (metres from the cell's lower-left corner) and count.
 HIT_X, HIT_Y, HIT_N = 0, 1, 2
+#: A full pool grows by at least 1 / GROW_DIVISOR: maps that run out mid-scan grow it step by step,
+#: and the grown rows are zeroed (held) at once, so a small step overshoots little.
+GROW_DIVISOR = 8
 #: Least slice of a pool's free entries a map that ran out is given next.
 MIN_SLICE = 16
 
@@ -261,7 +264,7 @@ class TiledMaps:
     The pools (tiles, hit blocks) are allocated zeroed for ``capacity`` entries and handed
     out from their low ends, so the memory a process really holds is that of the entries
     taken so far (the operating system maps zeroed pages only when they are first written);
-    when full a pool grows by a quarter, in place. The matching kernels read ``lo`` and
+    when full a pool grows by an eighth (or what is needed), in place. The matching kernels read ``lo`` and
     ``hits`` (each tile's hit block index, and the blocks).
     """
 
@@ -386,7 +389,7 @@ class TiledMaps:
         free = int(self.free_top[0])
         if free < needed:
             old = len(self.refs)
-            new = max(old + needed - free, old + old // 4)
+            new = max(old + needed - free, old + old // GROW_DIVISOR)
             for name in ("lo", "refs", "hit_of"):
                 self._grow(name, new)
             self.hit_of[old:] = -1
@@ -396,7 +399,7 @@ class TiledMaps:
         needed = needed if blocks is None else blocks
         if free < needed:
             old = len(self.hit_blocks)
-            new = max(old + needed - free, old + old // 4)
+            new = max(old + needed - free, old + old // GROW_DIVISOR)
             self._grow("hit_blocks", new)
             self.hit_free_stack = _grown_stack(self.hit_free_stack, free, old, new)
             self.hit_free_top[0] = free + new - old
