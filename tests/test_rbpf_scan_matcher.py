@@ -1,12 +1,25 @@
 """The scan matcher on a hand-made room: a known shift comes back; its pieces on tiny cases."""
 
+import math
+
 import numpy as np
 import pytest
 
 from slam_core.geometry import relative
 from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.rbpf.config import MatcherParams
-from slam_core.rbpf.scan_matcher import local_line, match, pose_likelihood
+from slam_core.rbpf.proposal import match_starts
+from slam_core.rbpf.scan_matcher import (
+    P_HUBER,
+    P_LSIGMA2,
+    P_PRIOR_TH,
+    P_PRIOR_XY,
+    _residual,
+    _solve3,
+    local_line,
+    match,
+    pose_likelihood,
+)
 from slam_core.rbpf.tiled_map import TILE, TiledMaps
 from tests.synthetic_room import room_scan
 
@@ -104,3 +117,66 @@ def test_scattered_points_are_no_line():
     maps, cells = _map_with_surface_points(points)
     occupied = MatcherParams().packed()[2]
     assert not local_line(*args_of(maps), *cells[0], occupied)[0]
+
+
+def test_parallel_matches_from_several_starts_equal_the_serial_ones(room_map):
+    params = MatcherParams().packed()
+    beams = beams_of(room_scan(TRUE_POSE, 180))
+    rng = np.random.default_rng(4)
+    starts = TRUE_POSE + rng.normal(0, [0.05, 0.05, 0.05], (7, 3))
+    poses, lls, counts = np.empty((7, 3)), np.empty(7), np.empty(7, np.int64)
+    match_starts(*args_of(room_map), starts, beams, params, 10, 3, poses, lls, counts)
+    for i, start in enumerate(starts):
+        x, y, th, _, n = match(*args_of(room_map), *start, beams, params, 10, 3)
+        assert (poses[i].tolist(), counts[i]) == ([x, y, th], n)
+        assert lls[i] == pose_likelihood(*args_of(room_map), x, y, th, beams, params)[0]
+    assert len(np.unique(poses[:, 0])) > 1  # the starts did lead to different results
+
+
+def reference_match(args, x, y, th, beams, params, iterations, wide_iterations):
+    """:func:`match`'s Gauss-Newton written out in Python on the single-beam ``_residual``, which
+    looks everything up again on every call (no per-beam memory)."""
+    x0, y0, th0 = x, y, th
+    inv_l2 = 1.0 / params[P_LSIGMA2]
+    prior_xy, prior_th = 1.0 / params[P_PRIOR_XY], 1.0 / params[P_PRIOR_TH]
+    jac = np.empty((2, 3))
+    for it in range(iterations):
+        radius = 2 if it < wide_iterations else 1
+        c, s = math.cos(th), math.sin(th)
+        info, grad, matched = np.zeros((3, 3)), np.zeros(3), 0
+        for beam in beams:
+            rows, r0, r1, d2 = _residual(*args, c, s, x, y, beam, params, radius, jac)
+            if rows == 0:
+                continue
+            matched += 1
+            length = math.sqrt(d2)
+            w = inv_l2 if length <= params[P_HUBER] else inv_l2 * params[P_HUBER] / length
+            for k in range(rows):
+                r = r0 if k == 0 else r1
+                for i in range(3):
+                    grad[i] += w * jac[k, i] * r
+                    for j in range(3):
+                        info[i, j] += w * jac[k, i] * jac[k, j]
+        system = info.copy()
+        system[0, 0] += prior_xy
+        system[1, 1] += prior_xy
+        system[2, 2] += prior_th
+        grad += [prior_xy * (x - x0), prior_xy * (y - y0), prior_th * (th - th0)]
+        step = _solve3(system, grad)
+        x, y, th = x - step[0], y - step[1], th - step[2]
+        if it >= wide_iterations and abs(step[0]) + abs(step[1]) < 1e-4 and abs(step[2]) < 1e-4:
+            break
+    return x, y, th, info, matched
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_matcher_remembering_cells_gives_exactly_the_plain_result(room_map, seed):
+    params = MatcherParams().packed()
+    rng = np.random.default_rng(seed)
+    beams = beams_of(room_scan(TRUE_POSE, 180))
+    start = TRUE_POSE + rng.normal(0, [0.06, 0.06, 0.05])
+    x, y, th, info, matched = match(*args_of(room_map), *start, beams, params, 10, 3)
+    rx, ry, rth, rinfo, rmatched = reference_match(args_of(room_map), *start, beams, params, 10, 3)
+    assert (x, y, th, matched) == (rx, ry, rth, rmatched)
+    np.testing.assert_array_equal(info, rinfo)
+    assert (x, y, th) != tuple(start)

@@ -33,7 +33,7 @@ from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.rbpf.config import RBPFConfig
 from slam_core.rbpf.correlative import likelihood_window, search
 from slam_core.rbpf.laser_mount import LaserMount
-from slam_core.rbpf.proposal import improved_proposal
+from slam_core.rbpf.proposal import improved_proposal, match_starts
 from slam_core.rbpf.scan_matcher import P_OCCUPIED, beam_rows, match, pose_likelihood
 from slam_core.rbpf.tiled_map import TiledMaps
 from slam_core.rbpf.trajectory_tree import ROOT, TrajectoryTree
@@ -298,12 +298,14 @@ class RBPFSlam:
         """The likeliest fine match ``(pose, ll, matched)`` from the ``starts`` among those
         matching at least ``min_matched`` beams, or the given best if none is likelier."""
         m = self.config.matcher
-        for start in starts:
-            x, y, th, _, n = match(*fine, start[0], start[1], start[2], beams, self._params,
-                                   m.iterations, m.wide_iterations)
-            ll, _ = pose_likelihood(*fine, x, y, th, beams, self._params)
+        starts = np.ascontiguousarray(starts, dtype=np.float64)
+        poses = np.empty((len(starts), 3))
+        lls = np.empty(len(starts))
+        counts = np.empty(len(starts), np.int64)
+        match_starts(*fine, starts, beams, self._params, m.iterations, m.wide_iterations, poses, lls, counts)
+        for pose, ll, n in zip(poses, lls, counts.tolist(), strict=True):
             if ll > best_ll and n >= min_matched:
-                best, best_ll, matched = np.array([x, y, th]), ll, n
+                best, best_ll, matched = pose, float(ll), n
         return best, best_ll, matched
 
     def _matching_beams(self, scan: Scan, max_range: float, max_beams: int) -> np.ndarray:

@@ -129,3 +129,19 @@ def improved_proposal(tables, lo, hits, origin_x, origin_y, resolution, prev, st
         out_pose[p, 2] = wrap_scalar(draw[2])
         out_logw[p] = ll + log_eta
         out_matched[p] = True
+
+
+@njit(parallel=True)
+def match_starts(table, lo, hits, origin_x, origin_y, resolution, starts, beams, params, iterations,
+                 wide_iterations, out_pose, out_ll, out_matched):
+    """Fine matches on one map from each of ``starts``, in parallel: fills ``out_pose``, ``out_ll``
+    (log-likelihood of the result) and ``out_matched`` (beams matched in the last pass)."""
+    for i in prange(starts.shape[0]):
+        x, y, th, _, n = match(table, lo, hits, origin_x, origin_y, resolution, starts[i, 0], starts[i, 1],
+                               starts[i, 2], beams, params, iterations, wide_iterations)
+        ll, _ = pose_likelihood(table, lo, hits, origin_x, origin_y, resolution, x, y, th, beams, params)
+        out_pose[i, 0] = x
+        out_pose[i, 1] = y
+        out_pose[i, 2] = th
+        out_ll[i] = ll
+        out_matched[i] = n

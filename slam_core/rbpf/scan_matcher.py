@@ -43,6 +43,8 @@ FREE_STEP = 1.5
 LINE_RATIO = 0.1
 #: Fewer surface points than this around a correspondence give no line.
 LINE_MIN_POINTS = 3
+#: Correspondence search radius (cells) of the matcher's first, wide iterations.
+MAX_RADIUS = 2
 
 # Indices into the parameter array built by MatcherParams.packed().
 P_LSIGMA2, P_DMAX2, P_OCCUPIED, P_FREE, P_HUBER, P_PRIOR_XY, P_PRIOR_TH = range(7)
@@ -160,10 +162,8 @@ def _residual(table, lo, hits, origin_x, origin_y, resolution, c, s, x, y, beam,
     Jacobian in ``jac[0]``) or 2 (point-to-point, ``r0, r1``, ``jac[0], jac[1]``);
     ``d2`` is the squared residual length.
     """
-    px = beam[0]
-    py = beam[1]
-    rx = c * px - s * py
-    ry = s * px + c * py
+    rx = c * beam[0] - s * beam[1]
+    ry = s * beam[0] + c * beam[1]
     ex = x + rx
     ey = y + ry
     back = FREE_STEP * resolution
@@ -175,6 +175,13 @@ def _residual(table, lo, hits, origin_x, origin_y, resolution, c, s, x, y, beam,
         return 0, 0.0, 0.0, d2
     is_line, nx, ny, cx, cy = local_line(table, lo, hits, origin_x, origin_y, resolution, ix, iy,
                                          params[P_OCCUPIED])
+    return _rows(is_line, nx, ny, cx, cy, ex, ey, rx, ry, sx, sy, d2, jac)
+
+
+@njit(inline="always")
+def _rows(is_line, nx, ny, cx, cy, ex, ey, rx, ry, sx, sy, d2, jac):
+    """:func:`_residual`'s result for a beam ending at ``(ex, ey)`` (``(rx, ry)`` from the pose)
+    matched to surface point ``(sx, sy)`` (squared distance ``d2``) on the local line found there."""
     if is_line:
         r = nx * (ex - cx) + ny * (ey - cy)
         jac[0, 0] = nx
@@ -188,6 +195,73 @@ def _residual(table, lo, hits, origin_x, origin_y, resolution, c, s, x, y, beam,
     jac[1, 1] = 1.0
     jac[1, 2] = rx
     return 2, ex - sx, ey - sy, d2
+
+
+@njit(inline="always")
+def _remembered_residual(table, lo, hits, origin_x, origin_y, resolution, c, s, x, y, beams, b, params,
+                         radius, jac, keys, cells, points, lines):
+    """:func:`_residual` of beam ``b``, remembering across calls what depends only on cells:
+    the admissible surface points around the endpoint's cell (kept while the endpoint and its
+    free point stay in the same cells and ``radius`` is the same), and the local line of the
+    last correspondence's cell. The same result, with fewer map reads as the pose converges.
+
+    ``keys[b]``: ``(ix, iy, fix, fiy, radius, count, line_ix, line_iy)``; ``cells[b, :count]``
+    and ``points[b, :count]`` the admissible cells and their surface points in search order;
+    ``lines[b]`` the local line (``is_line, nx, ny, cx, cy``). ``keys`` start at -1.
+    """
+    rx = c * beams[b, 0] - s * beams[b, 1]
+    ry = s * beams[b, 0] + c * beams[b, 1]
+    ex = x + rx
+    ey = y + ry
+    back = FREE_STEP * resolution
+    fx = ex - back * (c * beams[b, 2] - s * beams[b, 3])
+    fy = ey - back * (s * beams[b, 2] + c * beams[b, 3])
+    inv = 1.0 / resolution
+    ix = int(np.floor((ex - origin_x) * inv))
+    iy = int(np.floor((ey - origin_y) * inv))
+    fix = int(np.floor((fx - origin_x) * inv))
+    fiy = int(np.floor((fy - origin_y) * inv))
+    if (keys[b, 0] != ix or keys[b, 1] != iy or keys[b, 2] != fix or keys[b, 3] != fiy
+            or keys[b, 4] != radius):
+        count = 0
+        for dy in range(-radius, radius + 1):
+            for dx in range(-radius, radius + 1):
+                found, sx, sy = surface_point(table, lo, hits, origin_x, origin_y, resolution,
+                                              ix + dx, iy + dy, params[P_OCCUPIED])
+                if not found or logodds_at(table, lo, fix + dx, fiy + dy) >= params[P_FREE]:
+                    continue
+                cells[b, count, 0] = ix + dx
+                cells[b, count, 1] = iy + dy
+                points[b, count, 0] = sx
+                points[b, count, 1] = sy
+                count += 1
+        keys[b, 0] = ix
+        keys[b, 1] = iy
+        keys[b, 2] = fix
+        keys[b, 3] = fiy
+        keys[b, 4] = radius
+        keys[b, 5] = count
+    best = np.inf
+    k = -1
+    for j in range(keys[b, 5]):
+        d2 = (ex - points[b, j, 0]) * (ex - points[b, j, 0]) + (ey - points[b, j, 1]) * (ey - points[b, j, 1])
+        if d2 < best:
+            best = d2
+            k = j
+    if k < 0:
+        return 0, 0.0, 0.0, best
+    if keys[b, 6] != cells[b, k, 0] or keys[b, 7] != cells[b, k, 1]:
+        is_line, nx, ny, cx, cy = local_line(table, lo, hits, origin_x, origin_y, resolution, cells[b, k, 0],
+                                             cells[b, k, 1], params[P_OCCUPIED])
+        keys[b, 6] = cells[b, k, 0]
+        keys[b, 7] = cells[b, k, 1]
+        lines[b, 0] = 1.0 if is_line else 0.0
+        lines[b, 1] = nx
+        lines[b, 2] = ny
+        lines[b, 3] = cx
+        lines[b, 4] = cy
+    return _rows(lines[b, 0] != 0.0, lines[b, 1], lines[b, 2], lines[b, 3], lines[b, 4], ex, ey, rx, ry,
+                 points[b, k, 0], points[b, k, 1], best, jac)
 
 
 def beam_rows(scan, max_range: float, max_beams: int) -> np.ndarray:
@@ -273,16 +347,22 @@ def match(table, lo, hits, origin_x, origin_y, resolution, x, y, th, beams, para
     jac = np.empty((2, 3))
     info = np.zeros((3, 3))
     matched = 0
+    n_beams = beams.shape[0]
+    keys = np.full((n_beams, 8), -1, np.int64)
+    cells = np.empty((n_beams, (2 * MAX_RADIUS + 1) ** 2, 2), np.int64)
+    points = np.empty((n_beams, (2 * MAX_RADIUS + 1) ** 2, 2))
+    lines = np.empty((n_beams, 5))
     for it in range(iterations):
-        radius = 2 if it < wide_iterations else 1
+        radius = MAX_RADIUS if it < wide_iterations else 1
         c = np.cos(th)
         s = np.sin(th)
         info[:, :] = 0.0
         grad = np.zeros(3)
         matched = 0
         for b in range(beams.shape[0]):
-            rows, r0, r1, d2 = _residual(table, lo, hits, origin_x, origin_y, resolution, c, s, x, y,
-                                         beams[b], params, radius, jac)
+            rows, r0, r1, d2 = _remembered_residual(table, lo, hits, origin_x, origin_y, resolution, c, s,
+                                                    x, y, beams, b, params, radius, jac, keys, cells, points,
+                                                    lines)
             if rows == 0:
                 continue
             matched += 1

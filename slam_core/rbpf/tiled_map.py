@@ -30,54 +30,135 @@ TILE = 1 << TILE_BITS
 GROW_MARGIN_TILES = 4
 #: Hit sums: x, y (metres from the cell's lower-left corner) and count.
 HIT_X, HIT_Y, HIT_N = 0, 1, 2
-#: Marks of a tile before a scan is integrated: it needs a copy of its own, a hit block.
-NEEDS_COPY, NEEDS_HITS = 1, 2
+#: A full pool grows by at least 1 / GROW_DIVISOR: maps that run out mid-scan grow it step by step,
+#: and the grown rows are zeroed (held) at once, so a small step overshoots little.
+GROW_DIVISOR = 8
+#: Least slice of a pool's free entries a map that ran out is given next.
+MIN_SLICE = 16
+
+
+@njit
+def _demand(tables, refs, hit_of, origin_x, origin_y, tile_size, poses, reach, beams, tiles, blocks):
+    """Upper bounds of the tiles and hit blocks a scan from each map's pose can take: the tiles
+    within ``reach`` that are not that map's own (missing or shared), and the tiles there
+    without a hit block of their own, at most one per beam plus the shared ones with one."""
+    n_ty, n_tx = tables.shape[1], tables.shape[2]
+    for p in range(poses.shape[0]):  # serial: a parallel launch costs more than this loop
+        tx0 = max(int(np.floor((poses[p, 0] - reach - origin_x) / tile_size)) - 1, 0)
+        ty0 = max(int(np.floor((poses[p, 1] - reach - origin_y) / tile_size)) - 1, 0)
+        tx1 = min(int(np.floor((poses[p, 0] + reach - origin_x) / tile_size)) + 1, n_tx - 1)
+        ty1 = min(int(np.floor((poses[p, 1] + reach - origin_y) / tile_size)) + 1, n_ty - 1)
+        foreign = 0
+        foreign_hits = 0
+        without_hits = 0
+        for ty in range(ty0, ty1 + 1):
+            for tx in range(tx0, tx1 + 1):
+                t = tables[p, ty, tx]
+                if t < 0 or refs[t] != 1:
+                    foreign += 1
+                    if t >= 0 and hit_of[t] >= 0:
+                        foreign_hits += 1
+                    else:
+                        without_hits += 1
+                elif hit_of[t] < 0:
+                    without_hits += 1
+        tiles[p] = foreign
+        blocks[p] = foreign_hits + min(without_hits, beams)
+
+
+@njit
+def _integrate_map(p, tables, refs, lo, hit_of, hit_blocks, stack, bottom, top, hit_stack, hit_bottom,
+                   hit_top, source, base, start, origin_x, origin_y, resolution, poses, angles, ranges,
+                   range_min, range_max, usable_range, no_return_range, l_free, l_occ, l_min, l_max):
+    """Integrate the scan into map ``p`` from beam ``start[p, 0]``'s cell ``start[p, 1]`` on, in
+    one pass: a tile that is not the map's own is copied (or created) when a write first changes
+    it, into a tile taken from ``stack[bottom[p]:top[p]]`` (top down; ``source`` records what
+    it copies), a hit block likewise. Shared tiles are only read, and their reference counts
+    left as they are (see :func:`_settle`). Returns where it stopped for want of a tile or a
+    block, ``(-1, 0)`` when done."""
+    inv = 1.0 / resolution
+    n_ty, n_tx = tables.shape[1], tables.shape[2]
+    buf = np.empty((ray_buffer_size(usable_range, resolution), 2), dtype=np.int64)
+    gx0 = (poses[p, 0] - origin_x) * inv
+    gy0 = (poses[p, 1] - origin_y) * inv
+    first = start[p, 1]
+    for b in range(start[p, 0], angles.shape[0]):
+        use, hit, ex, ey = beam_endpoint(poses[p, 0], poses[p, 1], poses[p, 2], angles[b], ranges[b],
+                                         range_min, range_max, usable_range, no_return_range)
+        if not use:
+            first = 0
+            continue
+        n = trace_ray(gx0, gy0, (ex - origin_x) * inv, (ey - origin_y) * inv, buf)
+        for k in range(first, n):
+            ix = buf[k, 0]
+            iy = buf[k, 1]
+            ty = iy >> TILE_BITS
+            tx = ix >> TILE_BITS
+            if ix < 0 or iy < 0 or ty >= n_ty or tx >= n_tx:
+                continue
+            cy = iy & (TILE - 1)
+            cx = ix & (TILE - 1)
+            echo = hit and k == n - 1
+            t = tables[p, ty, tx]
+            if t < 0 or refs[t] != 1:
+                # A free-space write to a cell already at l_min changes nothing: the tile stays shared.
+                if not echo and t >= 0 and np.float32(max(lo[t, cy, cx] + l_free, l_min)) == lo[t, cy, cx]:
+                    continue
+                with_hits = echo or (t >= 0 and hit_of[t] >= 0)
+                if top[p] == bottom[p] or (with_hits and hit_top[p] == hit_bottom[p]):
+                    return b, k
+                top[p] -= 1
+                new = stack[top[p]]
+                source[top[p] - base] = t
+                refs[new] = 1
+                hit_of[new] = -1
+                if t < 0:
+                    lo[new] = 0.0
+                else:
+                    lo[new] = lo[t]
+                if with_hits:
+                    hit_top[p] -= 1
+                    h = hit_stack[hit_top[p]]
+                    if t >= 0 and hit_of[t] >= 0:
+                        hit_blocks[h] = hit_blocks[hit_of[t]]
+                    else:
+                        hit_blocks[h] = 0.0
+                    hit_of[new] = h
+                tables[p, ty, tx] = new
+                t = new
+            elif echo and hit_of[t] < 0:
+                if hit_top[p] == hit_bottom[p]:
+                    return b, k
+                hit_top[p] -= 1
+                h = hit_stack[hit_top[p]]
+                hit_blocks[h] = 0.0
+                hit_of[t] = h
+            if echo:
+                lo[t, cy, cx] = min(lo[t, cy, cx] + l_occ, l_max)
+                h = hit_of[t]
+                hit_blocks[h, cy, cx, HIT_X] += ex - (origin_x + ix * resolution)
+                hit_blocks[h, cy, cx, HIT_Y] += ey - (origin_y + iy * resolution)
+                hit_blocks[h, cy, cx, HIT_N] += 1.0
+            else:
+                lo[t, cy, cx] = max(lo[t, cy, cx] + l_free, l_min)
+        first = 0
+    return -1, 0
 
 
 @njit(parallel=True)
-def _mark_changed(tables, refs, lo, hit_of, origin_x, origin_y, resolution, poses, angles, ranges,
-                  range_min, range_max, usable_range, no_return_range, l_free, l_min, marks):
-    """Mark, per map, the shared or missing tiles a scan from that map's pose would change
-    (``NEEDS_COPY``) and the tiles an echo falls into that have no hit block (``NEEDS_HITS``).
-
-    A free-space write to a cell already at ``l_min`` leaves it as it is, so a shared tile
-    that only such writes reach stays shared: far fewer copies where the map is settled.
-    """
-    inv = 1.0 / resolution
-    n_ty, n_tx = tables.shape[1], tables.shape[2]
+def _integrate(tables, refs, lo, hit_of, hit_blocks, stack, bottom, top, hit_stack, hit_bottom, hit_top,
+               source, base, start, origin_x, origin_y, resolution, poses, angles, ranges, range_min,
+               range_max, usable_range, no_return_range, l_free, l_occ, l_min, l_max):
+    """:func:`_integrate_map` for every map not yet done (``start[p, 0] >= 0``), maps in
+    parallel; ``start`` becomes where each stopped."""
     for p in prange(poses.shape[0]):
-        buf = np.empty((ray_buffer_size(usable_range, resolution), 2), dtype=np.int64)
-        gx0 = (poses[p, 0] - origin_x) * inv
-        gy0 = (poses[p, 1] - origin_y) * inv
-        for b in range(angles.shape[0]):
-            use, hit, ex, ey = beam_endpoint(poses[p, 0], poses[p, 1], poses[p, 2], angles[b],
-                                             ranges[b], range_min, range_max, usable_range,
-                                             no_return_range)
-            if not use:
-                continue
-            n = trace_ray(gx0, gy0, (ex - origin_x) * inv, (ey - origin_y) * inv, buf)
-            for k in range(n):
-                ix = buf[k, 0]
-                iy = buf[k, 1]
-                ty = iy >> TILE_BITS
-                tx = ix >> TILE_BITS
-                if ix < 0 or iy < 0 or ty >= n_ty or tx >= n_tx:
-                    continue
-                t = tables[p, ty, tx]
-                if hit and k == n - 1:
-                    if t < 0 or hit_of[t] < 0:
-                        marks[p, ty, tx] |= NEEDS_HITS
-                    if t < 0 or refs[t] != 1:
-                        marks[p, ty, tx] |= NEEDS_COPY
-                    continue
-                if marks[p, ty, tx] & NEEDS_COPY or (t >= 0 and refs[t] == 1):
-                    continue
-                if t < 0:
-                    marks[p, ty, tx] |= NEEDS_COPY
-                    continue
-                old = lo[t, iy & (TILE - 1), ix & (TILE - 1)]
-                if np.float32(max(old + l_free, l_min)) != old:
-                    marks[p, ty, tx] |= NEEDS_COPY
+        if start[p, 0] >= 0:
+            b, k = _integrate_map(p, tables, refs, lo, hit_of, hit_blocks, stack, bottom, top, hit_stack,
+                                  hit_bottom, hit_top, source, base, start, origin_x, origin_y, resolution,
+                                  poses, angles, ranges, range_min, range_max, usable_range,
+                                  no_return_range, l_free, l_occ, l_min, l_max)
+            start[p, 0] = b
+            start[p, 1] = k
 
 
 @njit
@@ -88,73 +169,41 @@ def _take(free_stack, free_top):
 
 
 @njit
-def _make_exclusive(tables, marks, refs, free_stack, free_top, lo, hit_of, hit_blocks, hit_free_stack,
-                    hit_free_top):
-    """Give every map a private copy (or a new empty tile) of each tile marked ``NEEDS_COPY``,
-    and a hit block to each tile marked ``NEEDS_HITS`` (a copy takes a copy of its block)."""
-    for p in range(tables.shape[0]):
-        for ty in range(tables.shape[1]):
-            for tx in range(tables.shape[2]):
-                mark = marks[p, ty, tx]
-                if mark == 0:
-                    continue
-                t = tables[p, ty, tx]
-                if mark & NEEDS_COPY and (t < 0 or refs[t] != 1):
-                    new = _take(free_stack, free_top)
-                    hit_of[new] = -1
-                    if t < 0:
-                        lo[new] = 0.0
-                    else:
-                        lo[new] = lo[t]
-                        if hit_of[t] >= 0:
-                            hit_of[new] = _take(hit_free_stack, hit_free_top)
-                            hit_blocks[hit_of[new]] = hit_blocks[hit_of[t]]
-                        refs[t] -= 1
-                    refs[new] = 1
-                    tables[p, ty, tx] = new
-                    t = new
-                if mark & NEEDS_HITS and hit_of[t] < 0:
-                    hit_of[t] = _take(hit_free_stack, hit_free_top)
-                    hit_blocks[hit_of[t]] = 0.0
+def _compact(stack, base, bottom, top):
+    """Move the entries the maps left (``stack[bottom[p]:top[p]]``, slices in order of ``p``)
+    down to ``base``; returns the stack's new top."""
+    end = base
+    for p in range(bottom.shape[0]):
+        for i in range(bottom[p], top[p]):
+            stack[end] = stack[i]
+            end += 1
+    return end
 
 
-@njit(parallel=True)
-def _integrate(tables, refs, lo, hit_of, hit_blocks, origin_x, origin_y, resolution, poses, angles, ranges,
-               range_min, range_max, usable_range, no_return_range, l_free, l_occ, l_min, l_max):
-    """Integrate one scan into every map at that map's pose (maps in parallel)."""
-    inv = 1.0 / resolution
-    n_ty, n_tx = tables.shape[1], tables.shape[2]
-    for p in prange(poses.shape[0]):
-        buf = np.empty((ray_buffer_size(usable_range, resolution), 2), dtype=np.int64)
-        gx0 = (poses[p, 0] - origin_x) * inv
-        gy0 = (poses[p, 1] - origin_y) * inv
-        for b in range(angles.shape[0]):
-            use, hit, ex, ey = beam_endpoint(poses[p, 0], poses[p, 1], poses[p, 2], angles[b],
-                                             ranges[b], range_min, range_max, usable_range,
-                                             no_return_range)
-            if not use:
-                continue
-            n = trace_ray(gx0, gy0, (ex - origin_x) * inv, (ey - origin_y) * inv, buf)
-            for k in range(n):
-                ix = buf[k, 0]
-                iy = buf[k, 1]
-                ty = iy >> TILE_BITS
-                tx = ix >> TILE_BITS
-                if ix < 0 or iy < 0 or ty >= n_ty or tx >= n_tx:
-                    continue
-                t = tables[p, ty, tx]
-                if t < 0 or refs[t] != 1:  # only tiles made exclusive beforehand
-                    continue
-                cy = iy & (TILE - 1)
-                cx = ix & (TILE - 1)
-                if hit and k == n - 1:
-                    lo[t, cy, cx] = min(lo[t, cy, cx] + l_occ, l_max)
-                    h = hit_of[t]
-                    hit_blocks[h, cy, cx, HIT_X] += ex - (origin_x + ix * resolution)
-                    hit_blocks[h, cy, cx, HIT_Y] += ey - (origin_y + iy * resolution)
-                    hit_blocks[h, cy, cx, HIT_N] += 1.0
-                else:
-                    lo[t, cy, cx] = max(lo[t, cy, cx] + l_free, l_min)
+@njit
+def _settle(refs, hit_of, source, stack, free_top, base, bottom, ceiling, top, hit_stack, hit_free_top,
+            hit_base, hit_bottom, hit_top):
+    """After :func:`_integrate`: one reference fewer for every tile copied, freeing (with its hit
+    block) each that no map holds any more, and the entries the maps did not take put back."""
+    for p in range(top.shape[0]):
+        for i in range(top[p] - base, ceiling[p] - base):
+            s = source[i]
+            if s >= 0:
+                refs[s] -= 1
+                if refs[s] != 0:
+                    source[i] = -1  # only the copy that freed it pushes it below
+    free_top[0] = _compact(stack, base, bottom, top)
+    hit_free_top[0] = _compact(hit_stack, hit_base, hit_bottom, hit_top)
+    for p in range(top.shape[0]):
+        for i in range(top[p] - base, ceiling[p] - base):
+            s = source[i]
+            if s >= 0:
+                stack[free_top[0]] = s
+                free_top[0] += 1
+                if hit_of[s] >= 0:
+                    hit_stack[hit_free_top[0]] = hit_of[s]
+                    hit_free_top[0] += 1
+                    hit_of[s] = -1
 
 
 @njit
@@ -183,6 +232,23 @@ def _retable(tables, refs, free_stack, free_top, hit_of, hit_free_stack, hit_fre
                             hit_of[t] = -1
 
 
+def _slices(free: int, want: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
+    """Consecutive slices ``[bottom[p], ceiling[p])`` of the top of a free stack of ``free``
+    entries, ``want[p]`` long; when they do not fit, each gets ``MIN_SLICE`` (if that fits)
+    and a share of the rest in proportion to what it wants. Also their base."""
+    total = int(want.sum())
+    sizes = want
+    if total > free:
+        least = np.minimum(want, MIN_SLICE)
+        if int(least.sum()) > free:
+            least = np.zeros_like(want)
+        more = want - least
+        sizes = least + more * (free - int(least.sum())) // max(int(more.sum()), 1)
+    base = free - int(sizes.sum())
+    ceiling = base + np.cumsum(sizes)
+    return ceiling - sizes, ceiling, base
+
+
 def _grown_stack(stack: np.ndarray, free: int, old: int, new: int) -> np.ndarray:
     """A free stack of ``free`` entries (of a pool of ``old``) with the pool's new entries up to
     ``new`` added below the old free ones' top, lowest on top."""
@@ -198,7 +264,7 @@ class TiledMaps:
     The pools (tiles, hit blocks) are allocated zeroed for ``capacity`` entries and handed
     out from their low ends, so the memory a process really holds is that of the entries
     taken so far (the operating system maps zeroed pages only when they are first written);
-    when full a pool grows by a quarter, in place. The matching kernels read ``lo`` and
+    when full a pool grows by an eighth (or what is needed), in place. The matching kernels read ``lo`` and
     ``hits`` (each tile's hit block index, and the blocks).
     """
 
@@ -216,6 +282,9 @@ class TiledMaps:
         self.hit_free_top = np.array([capacity], np.int64)
         self.tables = np.full((n_maps, 0, 0), -1, np.int32)
         self.origin = np.zeros(2)
+        #: Tiles and hit blocks a map took in the last integrate, on average: slices of that and
+        #: MIN_SLICE keep the maps taking from the stacks' tops, the entries already touched.
+        self._took = np.zeros(2, np.int64)
 
     @property
     def n_maps(self) -> int:
@@ -265,42 +334,72 @@ class TiledMaps:
             self.origin = self.origin - np.array([left, bottom]) * ts
 
     def integrate(self, poses: np.ndarray, scan) -> None:
-        """Integrate ``scan`` into map ``i`` at ``poses[i]``, first copying the shared tiles it changes."""
+        """Integrate ``scan`` into map ``i`` at ``poses[i]``: one pass over each map's rays, maps in
+        parallel, a shared tile copied when a write first changes it.
+
+        Each map takes its new tiles and hit blocks from a slice of the free stacks of its own,
+        sized by :func:`_demand`'s bound or what a map took last time (and MIN_SLICE), whichever is less
+        (shorter when the pools hold fewer); a map whose slice runs out stops, and goes on where
+        it stopped with what the others left, or once the pools have grown.
+        """
         poses = np.ascontiguousarray(poses, dtype=np.float64).reshape(self.n_maps, 3)
         m = self.model
         reach = min(m.usable_range, max(m.no_return_range, float(np.max(scan.ranges, initial=0.0))))
         self.ensure_contains(poses[:, 0].min() - reach, poses[:, 1].min() - reach,
                              poses[:, 0].max() + reach, poses[:, 1].max() + reach)
-        marks = np.zeros(self.tables.shape, np.uint8)
-        args = (self.origin[0], self.origin[1], self.resolution, poses, scan.angles, scan.ranges,
-                scan.range_min, scan.range_max, m.usable_range, m.no_return_range)
-        _mark_changed(self.tables, self.refs, self.lo, self.hit_of, *args, m.l_free, m.l_min, marks)
-        self._reserve(int(np.count_nonzero(marks)))
-        _make_exclusive(self.tables, marks, self.refs, self.free_stack, self.free_top, self.lo,
-                        self.hit_of, self.hit_blocks, self.hit_free_stack, self.hit_free_top)
-        _integrate(self.tables, self.refs, self.lo, self.hit_of, self.hit_blocks, *args,
-                   m.l_free, m.l_occ, m.l_min, m.l_max)
+        tiles = np.empty(self.n_maps, np.int64)
+        blocks = np.empty(self.n_maps, np.int64)
+        _demand(self.tables, self.refs, self.hit_of, self.origin[0], self.origin[1], self.tile_size, poses,
+                reach, len(scan.angles), tiles, blocks)
+        bounds = tiles, blocks
+        tiles = np.minimum(tiles, self._took[0] + MIN_SLICE)
+        blocks = np.minimum(blocks, self._took[1] + MIN_SLICE)
+        start = np.zeros((self.n_maps, 2), np.int64)
+        took = np.zeros((self.n_maps, 2), np.int64)
+        while True:
+            bottom, ceiling, base = _slices(int(self.free_top[0]), tiles)
+            hit_bottom, hit_ceiling, hit_base = _slices(int(self.hit_free_top[0]), blocks)
+            top, hit_top = ceiling.copy(), hit_ceiling.copy()
+            source = np.empty(int(self.free_top[0]) - base, np.int32)
+            _integrate(self.tables, self.refs, self.lo, self.hit_of, self.hit_blocks, self.free_stack, bottom,
+                       top, self.hit_free_stack, hit_bottom, hit_top, source, base, start, self.origin[0],
+                       self.origin[1], self.resolution, poses, scan.angles, scan.ranges, scan.range_min,
+                       scan.range_max, m.usable_range, m.no_return_range, m.l_free, m.l_occ, m.l_min, m.l_max)
+            _settle(self.refs, self.hit_of, source, self.free_stack, self.free_top, base, bottom, ceiling,
+                    top, self.hit_free_stack, self.hit_free_top, hit_base, hit_bottom, hit_top)
+            took[:, 0] += ceiling - top
+            took[:, 1] += hit_ceiling - hit_top
+            pending = start[:, 0] >= 0
+            if not pending.any():
+                self._took = took.sum(axis=0) // self.n_maps
+                return
+            # The maps left go on, wanting twice as much, with what the others left; the pools grow
+            # only when fewer than MIN_SLICE entries each are free: no sooner than needed.
+            tiles = np.where(pending, np.maximum(np.minimum(2 * tiles, bounds[0]), MIN_SLICE), 0)
+            blocks = np.where(pending, np.maximum(np.minimum(2 * blocks, bounds[1]), MIN_SLICE), 0)
+            self._reserve(MIN_SLICE * int(pending.sum()))
 
     def resample(self, parents: np.ndarray) -> None:
         """Map ``i`` becomes a copy of map ``parents[i]`` (sharing every tile)."""
         _retable(self.tables, self.refs, self.free_stack, self.free_top, self.hit_of, self.hit_free_stack,
                  self.hit_free_top, np.ascontiguousarray(parents, dtype=np.int64))
 
-    def _reserve(self, needed: int) -> None:
-        """Room for ``needed`` more tiles and hit blocks."""
+    def _reserve(self, needed: int, blocks: int | None = None) -> None:
+        """Room for ``needed`` more tiles and ``blocks`` (as many if not given) more hit blocks."""
         free = int(self.free_top[0])
         if free < needed:
             old = len(self.refs)
-            new = max(old + needed - free, old + old // 4)
+            new = max(old + needed - free, old + old // GROW_DIVISOR)
             for name in ("lo", "refs", "hit_of"):
                 self._grow(name, new)
             self.hit_of[old:] = -1
             self.free_stack = _grown_stack(self.free_stack, free, old, new)
             self.free_top[0] = free + new - old
         free = int(self.hit_free_top[0])
+        needed = needed if blocks is None else blocks
         if free < needed:
             old = len(self.hit_blocks)
-            new = max(old + needed - free, old + old // 4)
+            new = max(old + needed - free, old + old // GROW_DIVISOR)
             self._grow("hit_blocks", new)
             self.hit_free_stack = _grown_stack(self.hit_free_stack, free, old, new)
             self.hit_free_top[0] = free + new - old
