@@ -232,3 +232,12 @@ def test_a_pose_that_would_grow_the_map_past_its_limit_is_refused_before_any_all
         check_room(box, (x, 0.0, 0.0), 8.0, 0.05, CAPACITY)
     assert mapped_room.maps.tables.shape == tables_before
     check_room(box, (2.0, 1.0, 0.0), 8.0, 0.05, CAPACITY)  # in the home: fine
+
+
+def test_hit_sums_of_another_grid_are_refused_when_saving(tmp_path, mapped_room):
+    saved = checkpoint_of(mapped_room)
+    hits = saved.hit_sums
+    moved = SparseHits(hits.origin + 0.05, saved.grid.shape, hits.cells, hits.values)  # a cell off
+    with pytest.raises(ValueError, match="hit sums of a"):
+        save_snapshot(tmp_path, replace(saved, hit_sums=moved))
+    assert generations(tmp_path) == []

@@ -118,7 +118,7 @@ def save_snapshot(directory: Path, checkpoint: Checkpoint) -> int:
                       resolution=np.array(grid.resolution))
         hits = checkpoint.hit_sums
         if hits is not None:
-            if hits.shape != grid.shape or not np.allclose(hits.origin, grid.origin):
+            if not hits.fits(grid):
                 raise ValueError(f"hit sums of a {hits.shape} grid at {hits.origin} for a {grid.shape} map")
             arrays["hit_cells"], arrays["hit_values"] = hits.cells, hits.values
     if checkpoint.session is not None:

@@ -114,6 +114,10 @@ class SparseHits:
         sums = np.column_stack([np.bincount(index, values[:, c], len(cells)) for c in range(3)])
         return cls(origin, shape, cells, sums.reshape(-1, 3))
 
+    def fits(self, grid) -> bool:
+        """Whether these are sums on ``grid``'s cells (its shape and origin)."""
+        return self.shape == grid.shape and bool(np.allclose(self.origin, grid.origin))
+
     def dense(self) -> np.ndarray:
         """The sums as one ``(ny, nx, 3)`` array (to seed a filter's maps)."""
         hits = np.zeros((self.shape[0] * self.shape[1], 3), np.float32)
