@@ -64,13 +64,12 @@ def render(out: Path, mode: str) -> None:
     with np.load(out / "solves.npz") as z:
         solves = [z[k] for k in sorted(z.files)]
     counts = CountMap(c.resolution, c.sensor, c.loop_closure.submap_updates)
-    layout = None
-    if mode == "before":  # the filter's map as the layout: the grid is sized once, as live
-        sized = CountMap(c.resolution, c.sensor, len(session.scans))
-        sized.update(mount.laser_poses(session.poses), session.scans)
-        layout = sized.grid()
-        del sized
-    cpu, traced = 0.0, 0
+    # the filter's map as the layout (as live): the grid is sized once
+    sized = CountMap(c.resolution, c.sensor, len(session.scans))
+    sized.update(mount.laser_poses(session.poses), session.scans)
+    layout = sized.grid()
+    del sized
+    cpu, traced = np.zeros(3), 0  # map, grid, hit sums
     for poses in solves:
         scans = session.scans[:len(poses)]
         laser = mount.laser_poses(poses)
@@ -79,14 +78,22 @@ def render(out: Path, mode: str) -> None:
             grid = OccupancyGrid(c.resolution, layout.origin, layout.shape, model=c.sensor)
             for pose, scan in zip(laser, scans, strict=True):
                 grid.integrate(scan, pose)
-            hit_sums_on(grid, laser, scans, c.sensor.usable_range)
         else:
             traced += counts.update(laser, scans)
-            counts.hit_sums(counts.grid())
-        cpu += time.process_time() - started
+        gridded = time.process_time()
+        if mode == "after":
+            grid = counts.grid(layout)
+        hits = time.process_time()
+        if mode == "before":
+            hit_sums_on(grid, laser, scans, c.sensor.usable_range)
+        else:
+            counts.hit_sums(grid)
+        cpu += np.diff([started, gridded, hits, time.process_time()])
     submaps = sum(-(-len(p) // c.loop_closure.submap_updates) for p in solves)
     rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    print(f"{mode}: {len(solves)} solves, {cpu:.2f} s CPU, {1000 * cpu / len(solves):.0f} ms per solve, "
+    print(f"{mode}: {len(solves)} solves, {cpu.sum():.2f} s CPU, {1000 * cpu.sum() / len(solves):.0f} ms per "
+          f"solve (map {1000 * cpu[0] / len(solves):.0f}, grid {1000 * cpu[1] / len(solves):.0f}, hit sums "
+          f"{1000 * cpu[2] / len(solves):.0f}), "
           + (f"{traced} of {submaps} submaps traced, " if mode == "after" else "")
           + f"peak RSS {rss:.0f} MB")
 
@@ -119,6 +126,7 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--logs", nargs="+", default=["mit-csail", "intel"])
+    parser.add_argument("--work", type=Path, help="keep the sessions and solves here (reused when present)")
     parser.add_argument("--child", nargs=2, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.child is not None:
@@ -132,10 +140,11 @@ def main() -> int:
 
     with tempfile.TemporaryDirectory(prefix="homebot-render-") as tmp:
         for log in args.logs:
-            out = Path(tmp) / log
-            subprocess.run([sys.executable, "-m", "app.cli", "slam", log, "--out", str(out),
-                            "--save-session", "bench"], check=True, stdout=subprocess.DEVNULL)
-            child(out, "solves")
+            out = (args.work or Path(tmp)) / log
+            if not (out / "solves.npz").exists():
+                subprocess.run([sys.executable, "-m", "app.cli", "slam", log, "--out", str(out),
+                                "--save-session", "bench"], check=True, stdout=subprocess.DEVNULL)
+                child(out, "solves")
             print(f"{log}:")
             for mode in (*MODES, "differ"):
                 print("  " + child(out, mode))

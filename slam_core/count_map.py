@@ -36,12 +36,15 @@ OCC, FREE = 0, 1
 
 
 @njit
-def _count_beams(counts, ix0, iy0, inv, poses, angles, ranges, offsets, limits, usable_range,
+def _count_beams(counts, touched, ix0, iy0, inv, poses, angles, ranges, offsets, limits, usable_range,
                  no_return_range):
     """Add the observations of scan ``s`` (beams ``offsets[s]:offsets[s + 1]``, from laser pose
-    ``poses[s]``) to ``counts[iy - iy0, ix - ix0, OCC | FREE]``, which must hold every traced cell."""
+    ``poses[s]``) to zeroed ``counts[iy - iy0, ix - ix0, OCC | FREE]``, which must hold every traced
+    cell; the flat indices of the cells touched go to ``touched`` (as large as ``counts``' cells),
+    their number is returned."""
     buf = np.empty((ray_buffer_size(usable_range, 1.0 / inv), 2), dtype=np.int64)
     ny, nx = counts.shape[0], counts.shape[1]
+    m = 0
     for s in range(poses.shape[0]):
         px, py, pth = poses[s, 0], poses[s, 1], poses[s, 2]
         gx0, gy0 = px * inv - ix0, py * inv - iy0
@@ -55,7 +58,22 @@ def _count_beams(counts, ix0, iy0, inv, poses, angles, ranges, offsets, limits, 
                 cx, cy = buf[k, 0], buf[k, 1]
                 if cx < 0 or cy < 0 or cx >= nx or cy >= ny:
                     continue
+                if counts[cy, cx, OCC] == 0 and counts[cy, cx, FREE] == 0:
+                    touched[m] = cy * nx + cx
+                    m += 1
                 counts[cy, cx, OCC if (hit and k == n - 1) else FREE] += 1
+    return m
+
+
+@njit
+def _add_counts(counts, log_odds, flat, occupied, free, sign, l_occ, l_free, l_min, l_max):
+    """``counts`` (cells, 2) += ``sign`` * the counts of cells ``flat``, whose ``log_odds`` follow."""
+    for k in range(flat.shape[0]):
+        c = flat[k]
+        counts[c, OCC] += sign * np.int64(occupied[k])
+        counts[c, FREE] += sign * np.int64(free[k])
+        v = l_occ * counts[c, OCC] + l_free * counts[c, FREE]
+        log_odds[c] = min(max(v, l_min), l_max)
 
 
 def _reach(laser_poses: np.ndarray, scans: list[Scan], model: SensorModel, inv: float) -> np.ndarray:
@@ -97,21 +115,22 @@ class SubmapCounts:
         laser_poses = np.ascontiguousarray(laser_poses, np.float64).reshape(-1, 3)
         ix0, iy0, ix1, iy1 = _reach(laser_poses, scans, model, inv)
         counts = np.zeros((iy1 - iy0 + 1, ix1 - ix0 + 1, 2), np.int32)
+        touched = np.empty(counts.shape[0] * counts.shape[1], np.int64)
         offsets = np.concatenate([[0], np.cumsum([len(s) for s in scans])]).astype(np.int64)
         limits = np.array([(s.range_min, s.range_max) for s in scans], np.float64)
-        _count_beams(counts, float(ix0), float(iy0), inv, laser_poses,
-                     np.concatenate([s.angles for s in scans]), np.concatenate([s.ranges for s in scans]),
-                     offsets, limits, model.usable_range, model.no_return_range)
-        flat = counts.reshape(-1, 2)
-        touched = np.flatnonzero(flat.any(axis=1))
+        m = _count_beams(counts, touched, float(ix0), float(iy0), inv, laser_poses,
+                         np.concatenate([s.angles for s in scans]), np.concatenate([s.ranges for s in scans]),
+                         offsets, limits, model.usable_range, model.no_return_range)
+        touched = np.sort(touched[:m])
         nx = counts.shape[1]
         cells = np.column_stack([touched % nx + ix0, touched // nx + iy0])
-        dtype = np.uint16 if flat.max(initial=0) <= np.iinfo(np.uint16).max else np.int32
+        found = counts.reshape(-1, 2)[touched]
+        dtype = np.uint16 if found.max(initial=0) <= np.iinfo(np.uint16).max else np.int32
         ends = echo_endpoints(laser_poses, scans, model.usable_range)
         corner = np.array([ix0, iy0]) * resolution
         hits = SparseHits.of_echoes(corner, counts.shape[:2], resolution, ends)
         hit_cells = np.column_stack([hits.cells % nx + ix0, hits.cells // nx + iy0])
-        return cls(laser_poses, cells, flat[touched, OCC].astype(dtype), flat[touched, FREE].astype(dtype),
+        return cls(laser_poses, cells, found[:, OCC].astype(dtype), found[:, FREE].astype(dtype),
                    hit_cells, hits.values)
 
     def moved(self, laser_poses: np.ndarray, resolution: float) -> bool:
@@ -165,15 +184,10 @@ class CountMap:
             return
         self._grow_to(submap.cells.min(axis=0), submap.cells.max(axis=0))
         rel = submap.cells - self.corner
-        flat = rel[:, 1] * self.counts.shape[1] + rel[:, 0]  # each cell once in a submap
-        counts = self.counts.reshape(-1, 2)
-        counts[flat, OCC] += sign * submap.occupied.astype(np.int32)
-        counts[flat, FREE] += sign * submap.free.astype(np.int32)
-        self.log_odds.reshape(-1)[flat] = self._clamped(counts[flat])
-
-    def _clamped(self, counts: np.ndarray) -> np.ndarray:
+        flat = rel[:, 1] * self.counts.shape[1] + rel[:, 0]
         m = self.model
-        return np.clip(m.l_occ * counts[..., OCC] + m.l_free * counts[..., FREE], m.l_min, m.l_max)
+        _add_counts(self.counts.reshape(-1, 2), self.log_odds.reshape(-1), flat, submap.occupied, submap.free,
+                    sign, m.l_occ, m.l_free, m.l_min, m.l_max)
 
     def _grow_to(self, lo: np.ndarray, hi: np.ndarray) -> None:
         """Make the dense arrays cover absolute cells ``lo..hi`` (in chunks on the lattice)."""
