@@ -66,14 +66,15 @@ def _count_beams(counts, touched, ix0, iy0, inv, poses, angles, ranges, offsets,
 
 
 @njit
-def _add_counts(counts, log_odds, flat, occupied, free, sign, l_occ, l_free, l_min, l_max):
-    """``counts`` (cells, 2) += ``sign`` * the counts of cells ``flat``, whose ``log_odds`` follow."""
-    for k in range(flat.shape[0]):
-        c = flat[k]
-        counts[c, OCC] += sign * np.int64(occupied[k])
-        counts[c, FREE] += sign * np.int64(free[k])
-        v = l_occ * counts[c, OCC] + l_free * counts[c, FREE]
-        log_odds[c] = min(max(v, l_min), l_max)
+def _add_counts(counts, log_odds, cells, width, dx, dy, occupied, free, sign, l_occ, l_free, l_min, l_max):
+    """``counts[iy, ix]`` += ``sign`` * the counts of ``cells`` (flat indices into rows of ``width``,
+    at ``ix - dx, iy - dy``), whose ``log_odds`` follow."""
+    for k in range(cells.shape[0]):
+        iy, ix = cells[k] // width + dy, cells[k] % width + dx
+        counts[iy, ix, OCC] += sign * np.int64(occupied[k])
+        counts[iy, ix, FREE] += sign * np.int64(free[k])
+        v = l_occ * counts[iy, ix, OCC] + l_free * counts[iy, ix, FREE]
+        log_odds[iy, ix] = min(max(v, l_min), l_max)
 
 
 def _reach(laser_poses: np.ndarray, scans: list[Scan], model: SensorModel, inv: float) -> np.ndarray:
@@ -97,11 +98,16 @@ def _reach(laser_poses: np.ndarray, scans: list[Scan], model: SensorModel, inv: 
 
 @dataclass(frozen=True)
 class SubmapCounts:
-    """One submap's observations: the absolute cells ``(m, 2)`` (ix, iy) it touched, their occupied and
-    free counts, its echoes' absolute cells ``(h, 2)`` with their hit sums ``(h, 3)``, and the laser
-    poses it was traced from."""
+    """One submap's observations: the cells it touched (flat indices ``cells`` into rows of ``width``
+    cells from the absolute cell ``corner``; within absolute cells ``lo..hi``), their occupied and
+    free counts, its echoes' cells (the same way) with their hit sums ``(h, 3)``, and the laser poses
+    it was traced from."""
 
     poses: np.ndarray
+    corner: np.ndarray
+    width: int
+    lo: np.ndarray
+    hi: np.ndarray
     cells: np.ndarray
     occupied: np.ndarray
     free: np.ndarray
@@ -121,17 +127,18 @@ class SubmapCounts:
         m = _count_beams(counts, touched, float(ix0), float(iy0), inv, laser_poses,
                          np.concatenate([s.angles for s in scans]), np.concatenate([s.ranges for s in scans]),
                          offsets, limits, model.usable_range, model.no_return_range)
-        touched = np.sort(touched[:m])
-        nx = counts.shape[1]
-        cells = np.column_stack([touched % nx + ix0, touched // nx + iy0])
+        touched = np.sort(touched[:m]).astype(np.int32)
         found = counts.reshape(-1, 2)[touched]
         dtype = np.uint16 if found.max(initial=0) <= np.iinfo(np.uint16).max else np.int32
+        corner, nx = np.array([ix0, iy0]), counts.shape[1]
+        rows = touched[[0, -1]] // nx if m else np.zeros(2, np.int64)
+        columns = touched % nx
+        lo = corner + np.array([columns.min(initial=0), rows[0]])
+        hi = corner + np.array([columns.max(initial=0), rows[1]])
         ends = echo_endpoints(laser_poses, scans, model.usable_range)
-        corner = np.array([ix0, iy0]) * resolution
-        hits = SparseHits.of_echoes(corner, counts.shape[:2], resolution, ends)
-        hit_cells = np.column_stack([hits.cells % nx + ix0, hits.cells // nx + iy0])
-        return cls(laser_poses, cells, found[:, OCC].astype(dtype), found[:, FREE].astype(dtype),
-                   hit_cells, hits.values)
+        hits = SparseHits.of_echoes(corner * resolution, counts.shape[:2], resolution, ends)
+        return cls(laser_poses, corner, nx, lo, hi, touched, found[:, OCC].astype(dtype),
+                   found[:, FREE].astype(dtype), hits.cells.astype(np.int32), hits.values)
 
     def moved(self, laser_poses: np.ndarray, resolution: float) -> bool:
         """Whether ``laser_poses`` are other updates than those traced, or any moved past the tolerance."""
@@ -182,12 +189,11 @@ class CountMap:
     def _add(self, submap: SubmapCounts, sign: int) -> None:
         if len(submap.cells) == 0:
             return
-        self._grow_to(submap.cells.min(axis=0), submap.cells.max(axis=0))
-        rel = submap.cells - self.corner
-        flat = rel[:, 1] * self.counts.shape[1] + rel[:, 0]
+        self._grow_to(submap.lo, submap.hi)
+        dx, dy = submap.corner - self.corner
         m = self.model
-        _add_counts(self.counts.reshape(-1, 2), self.log_odds.reshape(-1), flat, submap.occupied, submap.free,
-                    sign, m.l_occ, m.l_free, m.l_min, m.l_max)
+        _add_counts(self.counts, self.log_odds, submap.cells, submap.width, dx, dy, submap.occupied,
+                    submap.free, sign, m.l_occ, m.l_free, m.l_min, m.l_max)
 
     def _grow_to(self, lo: np.ndarray, hi: np.ndarray) -> None:
         """Make the dense arrays cover absolute cells ``lo..hi`` (in chunks on the lattice)."""
@@ -228,11 +234,11 @@ class CountMap:
     def hit_sums(self, grid: OccupancyGrid) -> SparseHits:
         """Every submap's hit sums on ``grid``'s cells (a grid of :meth:`grid`)."""
         corner = np.round(grid.origin / self.resolution).astype(np.int64)
-        cells = np.vstack([s.hit_cells for s in self.submaps] or [np.zeros((0, 2), np.int64)]) - corner
+        cells = np.vstack([np.column_stack([s.hit_cells % s.width, s.hit_cells // s.width]) + s.corner
+                           for s in self.submaps] or [np.zeros((0, 2), np.int64)]) - corner
         values = np.vstack([s.hit_values for s in self.submaps] or [np.zeros((0, 3))]).astype(np.float64)
         ny, nx = grid.shape
-        inside = np.all((cells >= 0) & (cells < [nx, ny]), axis=1)
-        if not inside.all():
+        if not np.all((cells >= 0) & (cells < [nx, ny])):
             raise ValueError("the grid does not hold every echo of the map")
         # each submap's sums are from its own cell corners, on the same lattice as the grid's
         return SparseHits._summed(grid.origin, grid.shape, cells[:, 1] * nx + cells[:, 0], values)
