@@ -241,4 +241,4 @@ class CountMap:
         if not np.all((cells >= 0) & (cells < [nx, ny])):
             raise ValueError("the grid does not hold every echo of the map")
         # each submap's sums are from its own cell corners, on the same lattice as the grid's
-        return SparseHits._summed(grid.origin, grid.shape, cells[:, 1] * nx + cells[:, 0], values)
+        return SparseHits.summed(grid.origin, grid.shape, cells[:, 1] * nx + cells[:, 0], values)

@@ -66,7 +66,7 @@ def hit_sums_on(grid, laser_poses: np.ndarray, scans: list[Scan], usable_range: 
 
 @dataclass(frozen=True)
 class SparseHits:
-    """Hit sums of the cells an echo fell into: ``cells`` (flat indices, increasing) into a grid of
+    """Hit sums of the cells an echo fell into: ``cells`` (flat indices) into a grid of
     ``shape`` whose cell ``(0, 0)`` has its lower-left corner at ``origin``, and their sums
     ``values`` ``(m, 3)`` (``HIT_*``). ``ValueError`` for cells outside ``shape`` or unpaired arrays."""
 
@@ -105,10 +105,10 @@ class SparseHits:
         cell, ends = cell[inside], ends[inside]
         offsets = ends - (origin + cell * resolution)
         flat = cell[:, 1] * shape[1] + cell[:, 0]
-        return cls._summed(origin, shape, flat, np.column_stack([offsets, np.ones(len(flat))]))
+        return cls.summed(origin, shape, flat, np.column_stack([offsets, np.ones(len(flat))]))
 
     @classmethod
-    def _summed(cls, origin, shape, flat: np.ndarray, values: np.ndarray) -> SparseHits:
+    def summed(cls, origin, shape, flat: np.ndarray, values: np.ndarray) -> SparseHits:
         """Sums ``values`` of the same cell of ``flat`` (in any order, repeated) added up."""
         cells, index = np.unique(flat, return_inverse=True)
         sums = np.column_stack([np.bincount(index, values[:, c], len(cells)) for c in range(3)])
@@ -139,7 +139,7 @@ class SparseHits:
         if self.shape != other.shape or not np.allclose(self.origin, other.origin):
             raise ValueError("hit sums of different grids")
         flat = np.concatenate([self.cells, other.cells])
-        return self._summed(self.origin, self.shape, flat,
+        return self.summed(self.origin, self.shape, flat,
                             np.vstack([self.values, other.values]).astype(np.float64))
 
 
