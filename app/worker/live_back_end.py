@@ -85,7 +85,8 @@ class LiveBackEnd:
         self._lock = threading.Lock()
         self._memory: LoopMemory | None = None  # the last solve's (read and written by solves only)
         self._full_at = 0  # updates at the last full solve
-        self._map = CountMap(config.resolution, config.sensor, config.loop_closure.submap_updates)  # solves'
+        # the map by submap, traced again where the poses moved (read and written by solves only)
+        self._map = CountMap(config.resolution, config.sensor, config.loop_closure.submap_updates)
 
     @classmethod
     def attached_to(cls, estimator, prior: MappingSession | None = None) -> LiveBackEnd | None:
