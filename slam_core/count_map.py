@@ -131,12 +131,12 @@ class SubmapCounts:
         found = counts.reshape(-1, 2)[touched]
         dtype = np.uint16 if found.max(initial=0) <= np.iinfo(np.uint16).max else np.int32
         corner, nx = np.array([ix0, iy0]), counts.shape[1]
-        rows = touched[[0, -1]] // nx if m else np.zeros(2, np.int64)
-        columns = touched % nx
-        lo = corner + np.array([columns.min(initial=0), rows[0]])
-        hi = corner + np.array([columns.max(initial=0), rows[1]])
         ends = echo_endpoints(laser_poses, scans, model.usable_range)
         hits = SparseHits.of_echoes(corner * resolution, counts.shape[:2], resolution, ends)
+        every = np.concatenate([touched, hits.cells])  # an echo's cell is its ray's last, up to rounding
+        columns, rows = every % nx, every // nx
+        lo = corner + np.array([columns.min(initial=0), rows.min(initial=0)])
+        hi = corner + np.array([columns.max(initial=0), rows.max(initial=0)])
         return cls(laser_poses, corner, nx, lo, hi, touched, found[:, OCC].astype(dtype),
                    found[:, FREE].astype(dtype), hits.cells.astype(np.int32), hits.values)
 
