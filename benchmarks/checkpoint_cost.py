@@ -5,11 +5,12 @@ A session is made from a log as the filter would take its updates (every ``linea
 the map's size, not on the poses' accuracy); the flat's simulated tour is recorded first with
 ``homebot sim record``. Then, median wall and CPU seconds over ``--repeat`` runs:
 
-- in the back end's thread, per solve: rendering the map from the poses (as before) and now also
-  its hit sums (:func:`slam_core.rbpf.hit_render.add_hit_sums`, every beam of every update);
-- in the worker's thread, per snapshot: the published map's hit sums (the solve's, pasted, and
-  one submap of updates since added) and writing the snapshot, with the session beside it and
-  without;
+- in the back end's thread, per solve: rendering the map from the poses, every submap traced
+  (:class:`slam_core.count_map.CountMap`; a live solve traces only those that moved) and its
+  sparse hit sums;
+- in the worker's thread, per snapshot: the published map's hit sums (the solve's, moved onto the
+  grid, and one submap of updates since added) and writing the snapshot, with the session beside it
+  and without;
 - at a restart: loading the newest snapshot with its session.
 
     python benchmarks/checkpoint_cost.py [--logs flat mit-csail] [--repeat 5]
@@ -32,13 +33,12 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from app.worker.checkpoint import load_checkpoint, save_snapshot, session_path, snapshot_path
 from app.worker.estimators import Checkpoint
-from app.worker.live_back_end import render
+from slam_core.count_map import CountMap
 from slam_core.datasets import resolve_log
 from slam_core.geometry import relative, wrap_angle
 from slam_core.io.carmen import laser_mount_of, laser_records
-from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.rbpf import RBPFConfig
-from slam_core.rbpf.hit_render import add_hit_sums
+from slam_core.rbpf.hit_render import sparse_hit_sums
 from slam_core.rbpf.laser_mount import LaserMount
 from slam_core.session import MappingSession
 
@@ -79,27 +79,33 @@ def timed(runs: dict, name: str, function, *args):
     return result
 
 
-def hit_sums(session: MappingSession, grid: OccupancyGrid, first: int, solved: np.ndarray | None = None):
-    """The hit sums of ``session``'s updates from ``first`` on, added to ``solved`` (or to zeros)."""
-    hits = np.zeros((*grid.shape, 3), np.float32)
-    if solved is not None:
-        hits[:] = solved
+def render(session: MappingSession) -> CountMap:
+    c = session.config
+    counts = CountMap(c.resolution, c.sensor, c.loop_closure.submap_updates)
+    counts.update(session.laser_mount.laser_poses(session.poses), session.scans)
+    return counts
+
+
+def published_hits(session: MappingSession, counts: CountMap, first: int):
+    """The solve's hit sums with those of ``session``'s updates from ``first`` on added (as
+    ``LoopClosing.published_hits``)."""
+    grid = counts.grid()
     laser = session.laser_mount.laser_poses(session.poses[first:])
-    add_hit_sums(hits, grid.origin, grid.resolution, laser, session.scans[first:],
-                 session.config.sensor.usable_range)
-    return hits
+    solved = counts.hit_sums(grid)
+    since = sparse_hit_sums(grid, laser, session.scans[first:], session.config.sensor.usable_range)
+    return solved.plus(since)
 
 
 def measure(session: MappingSession, directory: Path, repeat: int) -> dict:
-    c, mount = session.config, session.laser_mount
+    c = session.config
     last_submap = len(session.scans) - c.loop_closure.submap_updates
     runs: dict = {}
     for k in range(repeat):
-        grid = timed(runs, "back end, per solve: render the map (as before)",
-                     render, c, mount, session.poses, session.scans, OccupancyGrid(c.resolution))
-        solved = timed(runs, "back end, per solve: + its hit sums (new)", hit_sums, session, grid, 0)
+        counts = timed(runs, "back end, per solve: trace every submap", render, session)
+        grid = timed(runs, "back end, per solve: the grid", counts.grid)
+        timed(runs, "back end, per solve: its hit sums", counts.hit_sums, grid)
         hits = timed(runs, f"worker, per snapshot: hit sums (+{c.loop_closure.submap_updates} updates)",
-                     hit_sums, session, grid, last_submap, solved)
+                     published_hits, session, counts, last_submap)
         checkpoint = Checkpoint("mapping", session.end_pose, grid, True, None, (0, 0), hits)
         timed(runs, "worker, per snapshot: write, no session",
               save_snapshot, directory / f"without-{k}", checkpoint)

@@ -39,7 +39,7 @@ import numpy as np
 from slam_core.io.npz import write_npz
 from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.rbpf import RBPFConfig
-from slam_core.rbpf.hit_render import hit_sums_on
+from slam_core.rbpf.hit_render import SparseHits, sparse_hit_sums
 from slam_core.rbpf.laser_mount import LaserMount
 from slam_core.scan import Scan
 
@@ -80,10 +80,10 @@ class MappingSession:
             grid.integrate(scan, pose)
         return grid
 
-    def hit_sums(self, grid: OccupancyGrid) -> np.ndarray:
-        """The updates' per-cell hit sums ``(ny, nx, 3)`` on ``grid``'s cells (as :meth:`grid` renders
-        them), for a particle filter seeded with that map (:mod:`slam_core.rbpf.hit_render`)."""
-        return hit_sums_on(grid, self.laser_mount.laser_poses(self.poses), self.scans,
+    def hit_sums(self, grid: OccupancyGrid) -> SparseHits:
+        """The updates' per-cell hit sums on ``grid``'s cells (as :meth:`grid` renders them), for a
+        particle filter seeded with that map (:mod:`slam_core.rbpf.hit_render`)."""
+        return sparse_hit_sums(grid, self.laser_mount.laser_poses(self.poses), self.scans,
                            self.config.sensor.usable_range)
 
 

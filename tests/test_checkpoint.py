@@ -11,7 +11,6 @@ import pytest
 from app.worker.checkpoint import (
     GENERATIONS_KEPT,
     VERSION,
-    dense_hits,
     generations,
     load_checkpoint,
     quarantine_newest,
@@ -26,7 +25,9 @@ from app.worker.map_limits import check_room, map_box
 from app.worker.shared_map import MapTooLarge
 from slam_core.rbpf.config import RBPFConfig
 from slam_core.rbpf.filter import RBPFSlam
+from slam_core.rbpf.hit_render import SparseHits
 from slam_core.rbpf.laser_mount import LaserMount
+from slam_core.rbpf.tiled_map import HIT_N
 from slam_core.scan import Scan
 from slam_core.session import MappingSession
 from tests.synthetic_room import room_scan
@@ -51,18 +52,18 @@ def checkpoint_of(slam: RBPFSlam, pose=(1.0, 0.5, 0.2)) -> Checkpoint:
 
 def test_a_snapshot_restores_the_map_and_its_hit_statistics_exactly(tmp_path, mapped_room):
     saved = checkpoint_of(mapped_room)
-    assert saved.hit_sums[..., 2].sum() > 100  # the map really holds beam endpoints
+    assert saved.hit_sums.values[:, HIT_N].sum() > 100  # the map really holds beam endpoints
     save_snapshot(tmp_path, saved)
     loaded = load_checkpoint(tmp_path, CAPACITY).checkpoint
     assert np.array_equal(loaded.grid.data, saved.grid.data)
     assert np.array_equal(loaded.grid.origin, saved.grid.origin)
-    assert np.array_equal(loaded.hit_sums, saved.hit_sums)
+    assert np.array_equal(loaded.hit_sums.dense(), saved.hit_sums.dense())
     assert np.array_equal(loaded.pose, saved.pose) and loaded.ticks == (120, -7)
     # ... and a filter resumed from it holds the very same map, endpoints included.
     resumed = RBPFSlam(RBPFConfig(particles=4), seed=2, initial_pose=loaded.pose)
-    resumed.maps.seed_from_grid(loaded.grid, loaded.hit_sums)
+    resumed.maps.seed_from_grid(loaded.grid, loaded.hit_sums.dense())
     grid, hits = map_with_hits(resumed)
-    assert np.array_equal(grid.data, saved.grid.data) and np.array_equal(hits, saved.hit_sums)
+    assert np.array_equal(grid.data, saved.grid.data) and np.array_equal(hits.dense(), saved.hit_sums.dense())
 
 
 def test_the_pose_file_updates_the_pose_of_its_own_generation_only(tmp_path, mapped_room):
@@ -178,7 +179,8 @@ def _rewrite_state(path, change) -> None:
 def _with_dense_hits(path) -> None:
     """The snapshot at ``path`` with its hit sums dense, as formats 1 and 2 kept them."""
     data = dict(np.load(path))
-    data["hit_sums"] = dense_hits(data["log_odds"].shape, data.pop("hit_cells"), data.pop("hit_values"))
+    hits = SparseHits(data["origin"], data["log_odds"].shape, data.pop("hit_cells"), data.pop("hit_values"))
+    data["hit_sums"] = hits.dense()
     np.savez_compressed(path, **data)
 
 
@@ -197,7 +199,7 @@ def test_a_snapshot_of_an_older_format_still_loads_with_its_map_and_hit_sums(tmp
     assert restored.generation == generation and not restored.quarantined
     loaded = restored.checkpoint
     assert np.array_equal(loaded.grid.data, saved.grid.data)
-    assert np.array_equal(loaded.hit_sums, saved.hit_sums)
+    assert np.array_equal(loaded.hit_sums.dense(), saved.hit_sums.dense())
     assert np.allclose(loaded.pose, (1.0, 0.5, 0.2)) and loaded.session is None
 
 
@@ -230,3 +232,12 @@ def test_a_pose_that_would_grow_the_map_past_its_limit_is_refused_before_any_all
         check_room(box, (x, 0.0, 0.0), 8.0, 0.05, CAPACITY)
     assert mapped_room.maps.tables.shape == tables_before
     check_room(box, (2.0, 1.0, 0.0), 8.0, 0.05, CAPACITY)  # in the home: fine
+
+
+def test_hit_sums_of_another_grid_are_refused_when_saving(tmp_path, mapped_room):
+    saved = checkpoint_of(mapped_room)
+    hits = saved.hit_sums
+    moved = SparseHits(hits.origin + 0.05, saved.grid.shape, hits.cells, hits.values)  # a cell off
+    with pytest.raises(ValueError, match="hit sums of a"):
+        save_snapshot(tmp_path, replace(saved, hit_sums=moved))
+    assert generations(tmp_path) == []

@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from slam_core.occupancy_grid import SensorModel
-from slam_core.rbpf.hit_render import add_hit_sums
+from slam_core.rbpf.hit_render import SparseHits, add_hit_sums, sparse_hit_sums
 from slam_core.rbpf.tiled_map import HIT_N, TiledMaps
 from slam_core.scan import Scan
 from tests.synthetic_room import cast
@@ -60,3 +61,34 @@ def test_echoes_outside_the_grid_are_counted_not_added():
     [(iy, ix)] = np.argwhere(hits[..., HIT_N] > 0)
     assert (iy, ix) == (5, 24)
     np.testing.assert_allclose(hits[iy, ix], (1.23 - 24 * 0.05, 0.26 - 5 * 0.05, 1.0), atol=1e-6)
+
+
+def test_sparse_hit_sums_equal_the_filter_maps_own_and_move_onto_larger_grids():
+    rng = np.random.default_rng(9)
+    model = SensorModel(usable_range=5.0)
+    poses = np.column_stack([rng.uniform(-2, 3, 20), rng.uniform(-1.5, 2.5, 20), rng.uniform(-3, 3, 20)])
+    scans = scans_with_every_kind_of_beam(rng, poses)
+    maps = TiledMaps(1, 0.05, model)
+    for pose, scan in zip(poses, scans, strict=True):
+        maps.integrate(pose[None], scan)
+    grid, expected = maps.to_grid(0), maps.hit_sums(0)
+    first, second = (sparse_hit_sums(grid, poses[part], scans[part], model.usable_range)
+                     for part in (slice(0, 9), slice(9, None)))
+    both = first.plus(second)
+    assert len(both.cells) < len(first.cells) + len(second.cells)  # cells hit in both parts, summed
+    assert expected[..., HIT_N].sum() > 1000
+    assert np.array_equal(both.dense()[..., HIT_N], expected[..., HIT_N])
+    np.testing.assert_allclose(both.dense(), expected, atol=2e-5)
+    assert np.array_equal(SparseHits.from_dense(expected, grid.origin).dense(), expected)
+    ny, nx = grid.shape
+    wide = both.on(grid.origin - np.array([4, 7]) * grid.resolution, (ny + 10, nx + 6), grid.resolution)
+    np.testing.assert_array_equal(wide.dense()[7:7 + ny, 4:4 + nx], both.dense())
+    assert wide.dense()[..., HIT_N].sum() == expected[..., HIT_N].sum()
+    with pytest.raises(ValueError, match="do not fit"):
+        both.on(grid.origin + grid.resolution, grid.shape, grid.resolution)
+    with pytest.raises(ValueError, match="different grids"):
+        both.plus(wide)
+    with pytest.raises(ValueError, match="outside the map"):
+        SparseHits(grid.origin, grid.shape, np.array([ny * nx]), np.zeros((1, 3)))
+    with pytest.raises(ValueError, match="do not pair"):
+        SparseHits(grid.origin, grid.shape, np.array([0, 1]), np.zeros((1, 3)))

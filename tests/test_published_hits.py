@@ -25,7 +25,7 @@ def test_the_published_hit_sums_match_the_session_drawn_by_the_filters_kernels()
         loops.take(slam)
     assert loops.solved is not None and len(loops.solved.poses) < len(loops.back_end.scans)
     session = loops.session(slam, slam.estimate().pose)
-    hits = loops.published_hits(session)
+    hits = loops.published_hits(session).dense()
     grid = loops.published_grid
     maps = TiledMaps(1, grid.resolution, grid.model)
     for laser, scan in zip(session.laser_mount.laser_poses(session.poses), session.scans, strict=True):

@@ -10,6 +10,7 @@ import pytest
 
 from app.worker.relocalize import Relocalizer
 from slam_core.geometry import wrap_angle
+from slam_core.rbpf.hit_render import SparseHits
 from slam_core.rbpf.laser_mount import LaserMount
 from slam_core.rbpf.tiled_map import TiledMaps
 from slam_core.robot_config import robot_from
@@ -42,7 +43,8 @@ def flat_map():
     poses = tour_poses(world)
     for pose in poses:
         maps.integrate(pose[None, :], lidar.scan(pose, rng))
-    return world, maps.to_grid(0), maps.hit_sums(0), poses
+    grid = maps.to_grid(0)
+    return world, grid, SparseHits.from_dense(maps.hit_sums(0), grid.origin), poses
 
 
 @pytest.fixture(scope="module")

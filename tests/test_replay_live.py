@@ -22,6 +22,7 @@ import yaml
 from slam_core.datasets import BUNDLED
 from slam_core.evaluation import load_relations, relation_error
 from slam_core.io.carmen import laser_records
+from slam_core.io.ros_map import load_map
 from slam_core.io.trajectory import Trajectory
 from slam_core.pipelines.log_slam import slam_from_log
 from slam_core.rbpf import RBPFConfig
@@ -95,17 +96,33 @@ def test_the_server_exits_cleanly_after_the_final_optimisation(replay):
     assert stats["speed"] == "max" and "loop_edges" in stats
 
 
-def test_the_written_trajectory_scores_like_homebot_slam(replay):
+@pytest.fixture(scope="module")
+def offline(replay):
+    """``homebot slam`` on the same slice, config and seed."""
+    return slam_from_log(replay.log, replay.config, seed=0)
+
+
+def test_the_written_trajectory_scores_like_homebot_slam(replay, offline):
     live = Trajectory.load(replay.out / "trajectory.txt")
     assert live.stamps == [r.stamp.ipc_text for r in laser_records(replay.log)]
     relations = load_relations(BUNDLED["mit-csail"][1])
     live_error = relation_error(live.times, live.poses, relations)
-    offline = slam_from_log(replay.log, replay.config, seed=0).trajectory
+    offline = offline.trajectory
     offline_error = relation_error(offline.times, offline.poses, relations)
     assert live_error.count == offline_error.count > 100
     # the issue's bound: within 10 % of `homebot slam` on the same log, config and seed
     assert live_error.trans.mean() <= 1.1 * offline_error.trans.mean() + 1e-3, live_error.report()
     assert live_error.trans.mean() < 0.05, live_error.report()
+
+
+def test_the_written_map_is_homebot_slams(replay, offline):
+    """At max speed the live run's final map is rendered as ``homebot slam``'s (each cell clamped
+    after the sum of its observations) from the same poses: the same cells, the same labels."""
+    live = load_map(replay.out / "map.yaml")
+    assert live.shape == offline.grid.shape and np.allclose(live.origin, offline.grid.origin)
+    labels = offline.grid.trinary()
+    assert np.sum(labels >= 0) > 20000
+    assert np.array_equal(live.trinary(), labels)
 
 
 def test_the_stream_carries_the_replayed_poses_and_the_status_says_replay(replay):

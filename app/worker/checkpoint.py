@@ -45,7 +45,7 @@ from slam_core.io.npz import write_npz
 from slam_core.io.render import save_png
 from slam_core.io.ros_map import save_map
 from slam_core.occupancy_grid import OccupancyGrid
-from slam_core.rbpf.tiled_map import HIT_N
+from slam_core.rbpf.hit_render import SparseHits
 from slam_core.session import SUFFIX, SessionError, load_session, write_session
 
 #: The snapshot format written; formats 1 (no ``"version"``) and 2 are read too.
@@ -116,8 +116,11 @@ def save_snapshot(directory: Path, checkpoint: Checkpoint) -> int:
     if grid is not None and grid.data.size:
         arrays.update(log_odds=grid.data.astype(np.float32), origin=np.asarray(grid.origin, float),
                       resolution=np.array(grid.resolution))
-        if checkpoint.hit_sums is not None:
-            arrays["hit_cells"], arrays["hit_values"] = sparse_hits(checkpoint.hit_sums)
+        hits = checkpoint.hit_sums
+        if hits is not None:
+            if not hits.fits(grid):
+                raise ValueError(f"hit sums of a {hits.shape} grid at {hits.origin} for a {grid.shape} map")
+            arrays["hit_cells"], arrays["hit_values"] = hits.cells, hits.values
     if checkpoint.session is not None:
         write_atomically(session_path(directory, generation), lambda f: write_session(checkpoint.session, f))
     write_atomically(snapshot_path(directory, generation), lambda f: write_npz(f, arrays))
@@ -125,26 +128,6 @@ def save_snapshot(directory: Path, checkpoint: Checkpoint) -> int:
         snapshot_path(directory, old).unlink(missing_ok=True)
         session_path(directory, old).unlink(missing_ok=True)
     return generation
-
-
-def sparse_hits(hits: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(cells, values)``: the flat indices of the cells of ``hits`` ``(ny, nx, 3)`` with a count
-    and their sums ``(m, 3)``."""
-    flat = hits.reshape(-1, 3)
-    cells = np.flatnonzero(flat[:, HIT_N])
-    return cells.astype(np.int64), flat[cells].astype(np.float32)
-
-
-def dense_hits(shape: tuple[int, int], cells: np.ndarray, values: np.ndarray) -> np.ndarray:
-    """The hit sums ``(ny, nx, 3)`` of :func:`sparse_hits`; ``ValueError`` for cells outside ``shape``."""
-    cells = np.asarray(cells)
-    if cells.ndim != 1 or values.shape != (len(cells), 3) or not np.issubdtype(cells.dtype, np.integer):
-        raise ValueError(f"hit cells {cells.shape} and values {values.shape} do not pair")
-    if len(cells) and (cells.min() < 0 or cells.max() >= shape[0] * shape[1]):
-        raise ValueError("hit cells outside the map")
-    hits = np.zeros((shape[0] * shape[1], 3), np.float32)
-    hits[cells] = values
-    return hits.reshape(*shape, 3)
 
 
 def save_pose(directory: Path, checkpoint: Checkpoint, generation: int) -> None:
@@ -162,9 +145,13 @@ def read_snapshot(path: Path, max_cells: int, session: Path | None = None) -> Ch
             grid = hits = None
             if "log_odds" in z:
                 grid = OccupancyGrid(float(z["resolution"]), z["origin"], data=z["log_odds"])
-                hits = z.get("hit_sums")  # format 2
+                if "hit_sums" in z:  # format 2: dense
+                    dense = z["hit_sums"]
+                    if dense.shape != (*grid.shape, 3):
+                        raise ValueError(f"hit sums of shape {dense.shape} for a {grid.shape} map")
+                    hits = SparseHits.from_dense(dense, grid.origin)
                 if "hit_cells" in z:
-                    hits = dense_hits(grid.shape, z["hit_cells"], z["hit_values"])
+                    hits = SparseHits(grid.origin, grid.shape, z["hit_cells"], z["hit_values"])
         checkpoint = _checkpoint(state, grid, hits)
     except (OSError, ValueError, KeyError, TypeError, EOFError, zipfile.BadZipFile, zlib.error) as exc:
         raise BadCheckpoint(f"unreadable: {type(exc).__name__}: {exc}") from None
@@ -182,12 +169,12 @@ def read_snapshot(path: Path, max_cells: int, session: Path | None = None) -> Ch
         if grid.data.ndim != 2 or grid.data.size > max_cells or max(grid.data.shape) > MAX_SIDE:
             raise BadCheckpoint(f"map of shape {grid.data.shape} exceeds the limit of {max_cells} cells "
                                 f"(sides of at most {MAX_SIDE})")
-        if not np.all(np.isfinite(grid.data)) or (hits is not None and hits.shape != (*grid.shape, 3)):
-            raise BadCheckpoint("map holds non-finite cells or hit sums of the wrong shape")
+        if not np.all(np.isfinite(grid.data)) or (hits is not None and not np.all(np.isfinite(hits.values))):
+            raise BadCheckpoint("map or hit sums hold non-finite values")
     return checkpoint
 
 
-def _checkpoint(state: dict, grid: OccupancyGrid | None, hits: np.ndarray | None) -> Checkpoint:
+def _checkpoint(state: dict, grid: OccupancyGrid | None, hits: SparseHits | None) -> Checkpoint:
     pose = np.array(state["pose"], float)
     if pose.shape != (3,) or not np.all(np.isfinite(pose)):
         raise ValueError(f"pose {state['pose']!r} is not three finite numbers")

@@ -20,6 +20,7 @@ from slam_core.localization.mcl import MclConfig, MonteCarloLocalizer
 from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.rbpf.config import RBPFConfig
 from slam_core.rbpf.filter import RBPFSlam
+from slam_core.rbpf.hit_render import SparseHits
 from slam_core.rbpf.laser_mount import LaserMount
 from slam_core.robot_config import RobotConfig
 from slam_core.scan import Scan
@@ -41,7 +42,7 @@ class Checkpoint:
     mapping: bool = True
     map_name: str | None = None
     ticks: tuple[int, int] | None = None  # the MCU's cumulative encoder counts at ``pose``
-    hit_sums: np.ndarray | None = None  # per-cell beam endpoint sums of ``grid`` (RBPF maps)
+    hit_sums: SparseHits | None = None  # per-cell beam endpoint sums of ``grid`` (RBPF maps)
     session: MappingSession | None = None
 
 
@@ -76,20 +77,21 @@ def effective_robot(settings) -> RobotConfig:
     return dataclasses.replace(robot, laser=dataclasses.replace(robot.laser, mount=laser_mount(settings)))
 
 
-def _rbpf(settings, pose: np.ndarray, grid: OccupancyGrid | None, hit_sums: np.ndarray | None) -> RBPFSlam:
+def _rbpf(settings, pose: np.ndarray, grid: OccupancyGrid | None, hit_sums: SparseHits | None) -> RBPFSlam:
     """The RBPF SLAM, resumed on the checkpoint's map when there is one."""
     config = settings.slam()
     slam = RBPFSlam(config, seed=settings.seed, initial_pose=pose, laser_mount=laser_mount(settings))
     if grid is not None and grid.data.size and abs(grid.resolution - settings.resolution) < 1e-12:
-        slam.maps.seed_from_grid(grid, hit_sums)
+        slam.maps.seed_from_grid(grid, None if hit_sums is None else hit_sums.dense())
     return slam
 
 
-def map_with_hits(estimator) -> tuple[OccupancyGrid | None, np.ndarray | None]:
+def map_with_hits(estimator) -> tuple[OccupancyGrid | None, SparseHits | None]:
     """The estimator's map and, for the RBPF, its hit sums (None for estimators that keep none)."""
     if isinstance(estimator, RBPFSlam):
         best = estimator.best_index()
-        return estimator.maps.to_grid(best), estimator.maps.hit_sums(best)
+        grid = estimator.maps.to_grid(best)
+        return grid, SparseHits.from_dense(estimator.maps.hit_sums(best), grid.origin)
     return estimator.occupancy_map(), None
 
 

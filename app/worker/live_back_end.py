@@ -9,7 +9,7 @@ optimised poses; the filter never waits for it. The worker takes the finished
 filter's frame onto the optimised one (the ``map -> odom`` correction of REP-105, here
 ``map -> filter``); the published pose is that correction composed with the filter's
 pose, and the published map is the optimised one with the updates since drawn in at
-corrected poses. Each solve also renders the map's hit sums (:mod:`slam_core.rbpf.hit_render`,
+corrected poses. Each solve also gives the map's hit sums (:mod:`slam_core.rbpf.hit_render`,
 in its thread), so that a checkpoint of the optimised map resumes a filter that matches to the mean
 beam endpoints as its own map would.
 
@@ -21,8 +21,10 @@ Solves are incremental: each goes on from the last one's :class:`~slam_core.grap
 (the loop edges found stay, only the updates since are searched, the graph starts from the
 edges kept and is optimised from the last optimum), and every time the map has doubled since
 the last full solve, a full one searches every update again from the optimised poses
-(closures the drift hid at first). The map is rendered again from the optimised poses after
-every solve.
+(closures the drift hid at first). The map is kept by submap (:class:`~slam_core.count_map.CountMap`,
+blocks of ``submap_updates`` updates): a solve traces again only the submaps whose optimised poses
+moved and the newest, and the map is clamped after the sum of their counts, as ``homebot slam``'s
+final map is. Its hit sums stay sparse (:class:`~slam_core.rbpf.hit_render.SparseHits`).
 """
 
 from __future__ import annotations
@@ -33,12 +35,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from slam_core.count_map import CountMap
 from slam_core.geometry import compose, inverse
 from slam_core.graph.loop_closure import LoopMemory, close_loops
 from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.pipelines.log_slam import best_updates
 from slam_core.rbpf import RBPFConfig, RBPFSlam
-from slam_core.rbpf.hit_render import hit_sums_on
+from slam_core.rbpf.hit_render import SparseHits
 from slam_core.rbpf.laser_mount import LaserMount
 from slam_core.scan import Scan
 from slam_core.session import MappingSession
@@ -51,31 +54,21 @@ FULL_SOLVE_GROWTH = 2.0
 class BackEndResult:
     """One solve: the optimised (robot) pose of each of the first ``len(poses)`` updates (a prior
     session's first), the poses it started from, the loop edges kept and the map rendered from the
-    optimised poses, with its hit sums (``(ny, nx, 3)`` from ``hits_origin``: the grid's origin
-    then, as the worker draws the updates since into the grid and may grow it)."""
+    optimised poses, with its hit sums (on the grid's cells as it was: the worker draws the updates
+    since into the grid and may grow it), and how many submaps this solve traced again."""
 
     poses: np.ndarray
     filter_poses: np.ndarray
     loop_edges: int
     grid: OccupancyGrid
     seconds: float
-    hit_sums: np.ndarray
-    hits_origin: np.ndarray
+    hit_sums: SparseHits
+    traced: int
 
     @property
     def correction(self) -> np.ndarray:
         """``map <- filter``: takes the newest solved update's filter pose onto its optimised pose."""
         return compose(self.poses[-1], inverse(self.filter_poses[-1]))
-
-
-def render(config: RBPFConfig, mount: LaserMount, poses: np.ndarray, scans: list[Scan],
-           layout: OccupancyGrid) -> OccupancyGrid:
-    """The map of ``scans`` taken from robot ``poses`` by a laser at ``mount``, on the cells of
-    ``layout`` (the filter's map: the published map keeps its extent unless a scan reaches out)."""
-    grid = OccupancyGrid(config.resolution, layout.origin, layout.shape, model=config.sensor)
-    for pose, scan in zip(mount.laser_poses(poses), scans, strict=True):
-        grid.integrate(scan, pose)
-    return grid
 
 
 class LiveBackEnd:
@@ -92,6 +85,8 @@ class LiveBackEnd:
         self._lock = threading.Lock()
         self._memory: LoopMemory | None = None  # the last solve's (read and written by solves only)
         self._full_at = 0  # updates at the last full solve
+        # the map by submap, traced again where the poses moved (read and written by solves only)
+        self._map = CountMap(config.resolution, config.sensor, config.loop_closure.submap_updates)
 
     @classmethod
     def attached_to(cls, estimator, prior: MappingSession | None = None) -> LiveBackEnd | None:
@@ -150,10 +145,10 @@ class LiveBackEnd:
         self._memory = closed.memory
         if memory is None:
             self._full_at = len(poses)
-        grid = render(c, self.mount, closed.poses, scans, layout)
-        hits = hit_sums_on(grid, self.mount.laser_poses(closed.poses), scans, c.sensor.usable_range)
+        traced = self._map.update(self.mount.laser_poses(closed.poses), scans)
+        grid = self._map.grid(layout)
         result = BackEndResult(closed.poses, poses, closed.loop_edges, grid, time.perf_counter() - started,
-                               hits, grid.origin.copy())
+                               self._map.hit_sums(grid), traced)
         with self._lock:
             self._done = result
             self.solves += 1

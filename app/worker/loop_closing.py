@@ -20,7 +20,7 @@ from slam_core.geometry import compose, wrap_angle
 from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.pipelines.log_slam import best_updates
 from slam_core.rbpf import RBPFSlam
-from slam_core.rbpf.hit_render import add_hit_sums
+from slam_core.rbpf.hit_render import SparseHits, sparse_hit_sums
 from slam_core.session import MappingSession
 
 
@@ -84,18 +84,14 @@ class LoopClosing:
         self.published_grid = result.grid
         return jump
 
-    def published_hits(self, session: MappingSession) -> np.ndarray:
-        """The published map's hit sums ``(ny, nx, 3)``: the last solve's, with those of ``session``'s
-        updates after it (:meth:`session`: at their corrected poses) added; after a solve only."""
+    def published_hits(self, session: MappingSession) -> SparseHits:
+        """The published map's hit sums: the last solve's, with those of ``session``'s updates after it
+        (:meth:`session`: at their corrected poses) added; after a solve only."""
         grid, solved = self.published_grid, self.solved
-        hits = np.zeros((*grid.shape, 3), np.float32)
-        x, y = np.round((solved.hits_origin - grid.origin) / grid.resolution).astype(int)  # it only grows
-        ny, nx = solved.hit_sums.shape[:2]
-        hits[y:y + ny, x:x + nx] = solved.hit_sums
+        hits = solved.hit_sums.on(grid.origin, grid.shape, grid.resolution)  # the grid only grows
         done = len(solved.poses)
         laser = session.laser_mount.laser_poses(session.poses[done:])
-        add_hit_sums(hits, grid.origin, grid.resolution, laser, session.scans[done:], grid.model.usable_range)
-        return hits
+        return hits.plus(sparse_hit_sums(grid, laser, session.scans[done:], grid.model.usable_range))
 
     def wait(self) -> None:
         """Until the running solve (if any) is done."""

@@ -227,7 +227,7 @@ class Worker:
                 grid, hits = map_with_hits(self.estimator)
                 if grid is None or not grid.data.size:
                     grid, hits = self.kept_grid, self.kept_hits
-                elif hits is None and self.kept_hits is not None and self.kept_hits.shape[:2] == grid.shape:
+                elif hits is None and self.kept_hits is not None and self.kept_hits.fits(grid):
                     hits = self.kept_hits
         return Checkpoint(self.mode, self.loops.map_pose(self.pose), grid, self.mapping, self.map_name,
                           self.ticks, hits, session)

@@ -27,6 +27,7 @@ from slam_core.geometry import wrap_angle
 from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.rbpf.config import RBPFConfig
 from slam_core.rbpf.correlative import bounded_search, likelihood_window, max_pool
+from slam_core.rbpf.hit_render import SparseHits
 from slam_core.rbpf.laser_mount import LaserMount
 from slam_core.rbpf.scan_matcher import P_OCCUPIED, beam_rows, match, pose_likelihood
 from slam_core.rbpf.tiled_map import TiledMaps
@@ -55,13 +56,13 @@ class Fix:
 class Relocalizer:
     """Scan matching of live scans against one restored map (see the module docstring)."""
 
-    def __init__(self, grid: OccupancyGrid, hit_sums: np.ndarray | None, config: RBPFConfig | None = None,
+    def __init__(self, grid: OccupancyGrid, hit_sums: SparseHits | None, config: RBPFConfig | None = None,
                  mount: LaserMount | None = None):
         self.config = config or RBPFConfig(resolution=grid.resolution)
         self.mount = mount or LaserMount()  # where the scans' laser sits on the robot
         self.params = self.config.matcher.packed()
         self.maps = TiledMaps(1, grid.resolution, self.config.sensor)
-        self.maps.seed_from_grid(grid, hit_sums)
+        self.maps.seed_from_grid(grid, None if hit_sums is None else hit_sums.dense())
         m, matcher = self.maps, self.config.matcher
         res = m.resolution
         # One field over the whole map: the robot is somewhere on it, and so are its scan's echoes.

@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from slam_core.count_map import CountMap
 from slam_core.geometry import compose, relative
 from slam_core.graph.loop_closure import LoopClosureResult, close_loops, per_scan_poses, scan_poses
 from slam_core.io.carmen import TruncatedLogError, laser_mount_of, laser_records
@@ -79,7 +80,7 @@ def slam_from_log(log_path, config: RBPFConfig | None = None, seed: int = 0,
                 slam = RBPFSlam(config, seed=seed, initial_pose=odom, laser_mount=mount)
                 if resume is not None:  # the session's map with its endpoints, as the server resumes it
                     grid = resume.grid()
-                    slam.maps.seed_from_grid(grid, resume.hit_sums(grid))
+                    slam.maps.seed_from_grid(grid, resume.hit_sums(grid).dense())
             is_update.append(slam.step(odom, record.scan))
             stamps.append(record.stamp.ipc_text)
             times.append(record.stamp.ipc_time)
@@ -146,7 +147,8 @@ def close_filter_loops(config: RBPFConfig, mount: LaserMount, best: BestUpdates,
                        ) -> tuple[np.ndarray, OccupancyGrid, LoopClosureResult, BestUpdates]:
     """The back end after the filter: close the best particle's loops, give every scan a robot pose
     (``update_of_scan``: each scan's last update; ``is_update``: the scans the filter updated
-    with) and render the map from the optimised poses of the updates (the laser at ``mount``).
+    with) and render the map from the optimised poses of the updates (the laser at ``mount``;
+    clamped after the sum, :mod:`slam_core.count_map`, as the live back end renders it).
     A ``prior`` session's updates come first in the graph (the filter went on from its end).
     Also returns every update's final pose and odometry (the prior's first)."""
     lc = config.loop_closure
@@ -163,10 +165,7 @@ def close_filter_loops(config: RBPFConfig, mount: LaserMount, best: BestUpdates,
                        config.matcher, config.sensor, mount)
     del submaps
     update_poses = np.vstack([closed.poses[:first], final[is_update]])
-    grid = OccupancyGrid(config.resolution, model=config.sensor)
-    laser_poses = mount.laser_poses(update_poses)
-    boxes = np.array([grid.reach_of(s, p) for p, s in zip(laser_poses, update_scans, strict=True)])
-    grid.ensure_contains(*boxes[:, :2].min(axis=0), *boxes[:, 2:].max(axis=0))  # sized once: no copies
-    for pose, scan in zip(laser_poses, update_scans, strict=True):
-        grid.integrate(scan, pose)
+    counts = CountMap(config.resolution, config.sensor, lc.submap_updates)
+    counts.update(mount.laser_poses(update_poses), update_scans)
+    grid = counts.grid()
     return final, grid, closed, BestUpdates(update_poses, best.odometry)

@@ -1,0 +1,244 @@
+"""An occupancy map kept as counts of observations, by submap, so that only moved submaps are traced again.
+
+Every beam adds one "free" observation to each cell it crosses before its echo and one "occupied"
+to its echo's cell (:mod:`slam_core.raycast`'s rules). A cell's log-odds is
+``clamp(l_occ * n_occ + l_free * n_free, l_min, l_max)``: clamped once after the sum, not after
+every beam as :meth:`~slam_core.occupancy_grid.OccupancyGrid.integrate` does, so the map does not
+depend on the order of the scans, and a submap (a block of consecutive updates) can be taken out
+and put back from other poses exactly (the counts are integers).
+
+:class:`CountMap` keeps each submap's counts sparse (the cells it touched) with the laser poses it
+was traced from, the sums of all of them in one dense pair of counts, and the log-odds of the touched
+cells. :meth:`CountMap.update` traces again only the submaps whose poses moved (an update by more
+than :data:`MOVE_CELLS` of a cell or :data:`MOVE_RAD`) and the ones that are new or grew.
+Cells are on the absolute lattice (cell ``(ix, iy)`` spans ``[ix, ix + 1) * resolution``), and
+the dense counts grow in chunks of :data:`~slam_core.occupancy_grid.GROW_CHUNK` cells aligned
+to it, as an :class:`~slam_core.occupancy_grid.OccupancyGrid` started empty does.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from slam_core.jit import njit
+from slam_core.occupancy_grid import GROW_CHUNK, OccupancyGrid, SensorModel
+from slam_core.raycast import beam_endpoint, ray_buffer_size, trace_ray
+from slam_core.rbpf.hit_render import SparseHits, echo_endpoints
+from slam_core.scan import Scan
+
+#: A submap is traced again when one of its laser poses moved by more than this fraction of a cell...
+MOVE_CELLS = 0.1
+#: ... or turned by more than this (rad).
+MOVE_RAD = 1e-3
+OCC, FREE = 0, 1
+
+
+@njit
+def _count_beams(counts, touched, ix0, iy0, inv, poses, angles, ranges, offsets, limits, usable_range,
+                 no_return_range):
+    """Add the observations of scan ``s`` (beams ``offsets[s]:offsets[s + 1]``, from laser pose
+    ``poses[s]``) to zeroed ``counts[iy - iy0, ix - ix0, OCC | FREE]``, which must hold every traced
+    cell; the flat indices of the cells touched go to ``touched`` (as large as ``counts``' cells),
+    their number is returned."""
+    buf = np.empty((ray_buffer_size(usable_range, 1.0 / inv), 2), dtype=np.int64)
+    ny, nx = counts.shape[0], counts.shape[1]
+    m = 0
+    for s in range(poses.shape[0]):
+        px, py, pth = poses[s, 0], poses[s, 1], poses[s, 2]
+        gx0, gy0 = px * inv - ix0, py * inv - iy0
+        for b in range(offsets[s], offsets[s + 1]):
+            use, hit, ex, ey = beam_endpoint(px, py, pth, angles[b], ranges[b], limits[s, 0], limits[s, 1],
+                                             usable_range, no_return_range)
+            if not use:
+                continue
+            n = trace_ray(gx0, gy0, ex * inv - ix0, ey * inv - iy0, buf)
+            for k in range(n):
+                cx, cy = buf[k, 0], buf[k, 1]
+                if cx < 0 or cy < 0 or cx >= nx or cy >= ny:
+                    continue
+                if counts[cy, cx, OCC] == 0 and counts[cy, cx, FREE] == 0:
+                    touched[m] = cy * nx + cx
+                    m += 1
+                counts[cy, cx, OCC if (hit and k == n - 1) else FREE] += 1
+    return m
+
+
+@njit
+def _add_counts(counts, log_odds, cells, width, dx, dy, occupied, free, sign, l_occ, l_free, l_min, l_max):
+    """``counts[iy, ix]`` += ``sign`` * the counts of ``cells`` (flat indices into rows of ``width``,
+    at ``ix - dx, iy - dy``), whose ``log_odds`` follow."""
+    for k in range(cells.shape[0]):
+        iy, ix = cells[k] // width + dy, cells[k] % width + dx
+        counts[iy, ix, OCC] += sign * np.int64(occupied[k])
+        counts[iy, ix, FREE] += sign * np.int64(free[k])
+        v = l_occ * counts[iy, ix, OCC] + l_free * counts[iy, ix, FREE]
+        log_odds[iy, ix] = min(max(v, l_min), l_max)
+
+
+def _reach(laser_poses: np.ndarray, scans: list[Scan], model: SensorModel, inv: float) -> np.ndarray:
+    """``[ix0, iy0, ix1, iy1]``: the cells that tracing ``scans`` can touch, with a cell to spare."""
+    lengths = [len(s) for s in scans]
+    angles, ranges = np.concatenate([s.angles for s in scans]), np.concatenate([s.ranges for s in scans])
+    r_min = np.repeat([s.range_min for s in scans], lengths)
+    r_max = np.repeat([s.range_max for s in scans], lengths)
+    poses = np.repeat(laser_poses, lengths, axis=0)
+    with np.errstate(invalid="ignore"):
+        use = (ranges >= r_min) & (ranges > 0)
+    r = np.where(ranges[use] >= r_max[use], min(model.no_return_range, model.usable_range),
+                 np.minimum(ranges[use], model.usable_range))
+    a = poses[use, 2] + angles[use]
+    xs = np.concatenate([poses[use, 0] + r * np.cos(a), laser_poses[:, 0]])
+    ys = np.concatenate([poses[use, 1] + r * np.sin(a), laser_poses[:, 1]])
+    lo = np.floor(np.array([xs.min(), ys.min()]) * inv).astype(np.int64) - 1
+    hi = np.floor(np.array([xs.max(), ys.max()]) * inv).astype(np.int64) + 1
+    return np.concatenate([lo, hi])
+
+
+@dataclass(frozen=True)
+class SubmapCounts:
+    """One submap's observations: the cells it touched (flat indices ``cells`` into rows of ``width``
+    cells from the absolute cell ``corner``; within absolute cells ``lo..hi``), their occupied and
+    free counts, its echoes' cells (the same way) with their hit sums ``(h, 3)``, and the laser poses
+    it was traced from."""
+
+    poses: np.ndarray
+    corner: np.ndarray
+    width: int
+    lo: np.ndarray
+    hi: np.ndarray
+    cells: np.ndarray
+    occupied: np.ndarray
+    free: np.ndarray
+    hit_cells: np.ndarray
+    hit_values: np.ndarray
+
+    @classmethod
+    def trace(cls, laser_poses: np.ndarray, scans: list[Scan], resolution: float,
+              model: SensorModel) -> SubmapCounts:
+        inv = 1.0 / resolution
+        laser_poses = np.ascontiguousarray(laser_poses, np.float64).reshape(-1, 3)
+        ix0, iy0, ix1, iy1 = _reach(laser_poses, scans, model, inv)
+        counts = np.zeros((iy1 - iy0 + 1, ix1 - ix0 + 1, 2), np.int32)
+        touched = np.empty(counts.shape[0] * counts.shape[1], np.int64)
+        offsets = np.concatenate([[0], np.cumsum([len(s) for s in scans])]).astype(np.int64)
+        limits = np.array([(s.range_min, s.range_max) for s in scans], np.float64)
+        m = _count_beams(counts, touched, float(ix0), float(iy0), inv, laser_poses,
+                         np.concatenate([s.angles for s in scans]), np.concatenate([s.ranges for s in scans]),
+                         offsets, limits, model.usable_range, model.no_return_range)
+        touched = np.sort(touched[:m]).astype(np.int32)
+        found = counts.reshape(-1, 2)[touched]
+        dtype = np.uint16 if found.max(initial=0) <= np.iinfo(np.uint16).max else np.int32
+        corner, nx = np.array([ix0, iy0]), counts.shape[1]
+        ends = echo_endpoints(laser_poses, scans, model.usable_range)
+        hits = SparseHits.of_echoes(corner * resolution, counts.shape[:2], resolution, ends)
+        every = np.concatenate([touched, hits.cells])  # an echo's cell is its ray's last, up to rounding
+        columns, rows = every % nx, every // nx
+        lo = corner + np.array([columns.min(initial=0), rows.min(initial=0)])
+        hi = corner + np.array([columns.max(initial=0), rows.max(initial=0)])
+        return cls(laser_poses, corner, nx, lo, hi, touched, found[:, OCC].astype(dtype),
+                   found[:, FREE].astype(dtype), hits.cells.astype(np.int32), hits.values)
+
+    def moved(self, laser_poses: np.ndarray, resolution: float) -> bool:
+        """Whether ``laser_poses`` are other updates than those traced, or any moved past the tolerance."""
+        if laser_poses.shape != self.poses.shape:
+            return True
+        step = np.abs(laser_poses - self.poses)
+        turn = np.abs((step[:, 2] + np.pi) % (2 * np.pi) - np.pi)
+        return bool(step[:, :2].max() > MOVE_CELLS * resolution or turn.max() > MOVE_RAD)
+
+
+class CountMap:
+    """The map of a growing list of updates, traced by blocks of ``submap_updates`` (see the module)."""
+
+    def __init__(self, resolution: float, model: SensorModel, submap_updates: int):
+        if submap_updates < 1:
+            raise ValueError(f"submap_updates must be at least 1, got {submap_updates}")
+        self.resolution, self.model, self.submap_updates = float(resolution), model, submap_updates
+        self.submaps: list[SubmapCounts] = []
+        self.corner = np.zeros(2, np.int64)  # the absolute cell (ix, iy) of counts[0, 0]
+        self.counts = np.zeros((0, 0, 2), np.int32)
+        self.log_odds = np.zeros((0, 0), np.float32)  # of the counts (kept up to date at touched cells)
+
+    def update(self, laser_poses: np.ndarray, scans: list[Scan]) -> int:
+        """Make the map that of ``scans`` seen from ``laser_poses``, the updates so far (they only grow);
+        returns the number of submaps traced."""
+        laser_poses = np.asarray(laser_poses, np.float64).reshape(-1, 3)
+        if len(laser_poses) != len(scans):
+            raise ValueError(f"{len(laser_poses)} poses for {len(scans)} scans")
+        size = self.submap_updates
+        if len(scans) < size * (len(self.submaps) - 1) + 1 and self.submaps:
+            raise ValueError(f"{len(scans)} updates: fewer than the map already holds")
+        traced = 0
+        for block, first in enumerate(range(0, len(scans), size)):
+            poses = laser_poses[first:first + size]
+            old = self.submaps[block] if block < len(self.submaps) else None
+            if old is not None and not old.moved(poses, self.resolution):
+                continue
+            new = SubmapCounts.trace(poses, scans[first:first + size], self.resolution, self.model)
+            if old is not None:
+                self._add(old, -1)
+                self.submaps[block] = new
+            else:
+                self.submaps.append(new)
+            self._add(new, 1)
+            traced += 1
+        return traced
+
+    def _add(self, submap: SubmapCounts, sign: int) -> None:
+        if len(submap.cells) == 0:
+            return
+        self._grow_to(submap.lo, submap.hi)
+        dx, dy = submap.corner - self.corner
+        m = self.model
+        _add_counts(self.counts, self.log_odds, submap.cells, submap.width, dx, dy, submap.occupied,
+                    submap.free, sign, m.l_occ, m.l_free, m.l_min, m.l_max)
+
+    def _grow_to(self, lo: np.ndarray, hi: np.ndarray) -> None:
+        """Make the dense arrays cover absolute cells ``lo..hi`` (in chunks on the lattice)."""
+        ny, nx = self.log_odds.shape
+        if nx and ny:
+            lo, hi = np.minimum(lo, self.corner), np.maximum(hi, self.corner + np.array([nx - 1, ny - 1]))
+        new_lo = np.floor_divide(lo, GROW_CHUNK) * GROW_CHUNK
+        new_hi = (np.floor_divide(hi, GROW_CHUNK) + 1) * GROW_CHUNK
+        if nx and ny and np.array_equal(new_lo, self.corner) and np.array_equal(new_hi - new_lo, [nx, ny]):
+            return
+        (x0, y0), (x1, y1) = new_lo, new_hi
+        counts = np.zeros((y1 - y0, x1 - x0, 2), np.int32)
+        log_odds = np.zeros((y1 - y0, x1 - x0), np.float32)
+        if nx and ny:
+            x, y = self.corner - new_lo
+            counts[y:y + ny, x:x + nx] = self.counts
+            log_odds[y:y + ny, x:x + nx] = self.log_odds
+        self.corner, self.counts, self.log_odds = new_lo, counts, log_odds
+
+    def grid(self, layout: OccupancyGrid | None = None) -> OccupancyGrid:
+        """A fresh grid of the map, over its cells and (when given) ``layout``'s extent too."""
+        res = self.resolution
+        grid = OccupancyGrid(res, model=self.model)
+        ny, nx = self.log_odds.shape
+        centres = []  # (xmin, ymin, xmax, ymax) of the cell centres to cover
+        if nx and ny:
+            centres.append(np.concatenate([self.corner + 0.5, self.corner + np.array([nx, ny]) - 0.5]) * res)
+        if layout is not None and layout.data.size:
+            centres.append(np.array(layout.extent()) + 0.5 * res * np.array([1, 1, -1, -1]))
+        if centres:
+            box = np.array(centres)
+            grid.ensure_contains(*box[:, :2].min(axis=0), *box[:, 2:].max(axis=0))
+        if nx and ny:
+            x, y = self.corner - np.round(grid.origin / res).astype(np.int64)
+            grid.data[y:y + ny, x:x + nx] = self.log_odds
+        return grid
+
+    def hit_sums(self, grid: OccupancyGrid) -> SparseHits:
+        """Every submap's hit sums on ``grid``'s cells (a grid of :meth:`grid`)."""
+        corner = np.round(grid.origin / self.resolution).astype(np.int64)
+        cells = np.vstack([np.column_stack([s.hit_cells % s.width, s.hit_cells // s.width]) + s.corner
+                           for s in self.submaps] or [np.zeros((0, 2), np.int64)]) - corner
+        values = np.vstack([s.hit_values for s in self.submaps] or [np.zeros((0, 3))]).astype(np.float64)
+        ny, nx = grid.shape
+        if not np.all((cells >= 0) & (cells < [nx, ny])):
+            raise ValueError("the grid does not hold every echo of the map")
+        # each submap's sums are from its own cell corners, on the same lattice as the grid's
+        return SparseHits.summed(grid.origin, grid.shape, cells[:, 1] * nx + cells[:, 0], values)

@@ -1,0 +1,36 @@
+"""The live back end's solves trace again only the submaps whose poses moved, and the newest."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from app.worker.live_back_end import LiveBackEnd
+from slam_core.count_map import CountMap
+from slam_core.rbpf.config import RBPFConfig
+from slam_core.rbpf.filter import RBPFSlam
+from tests.synthetic_room import room_scan
+
+
+def test_solves_without_moved_poses_trace_the_newest_submap_only_and_equal_a_full_render():
+    slam = RBPFSlam(RBPFConfig(particles=1, linear_update=0.1, angular_update=0.1), seed=4)
+    back_end = LiveBackEnd.attached_to(slam)
+    results = []
+    for i in range(64):  # one particle: its path is never rewritten; an update per step, no loop
+        pose = np.array([-1.2 + 0.03 * i, -0.3 + 0.01 * i, 0.11 * i])
+        scan = room_scan(pose)
+        if slam.step(pose, scan):
+            back_end.updated(slam, scan)
+            back_end.wait()
+            result = back_end.take()
+            if result is not None:
+                results.append(result)
+    size = slam.config.loop_closure.submap_updates
+    assert len(results) >= 2 and all(r.loop_edges == 0 for r in results)
+    assert [r.traced for r in results] == [1] * len(results)
+    assert [len(r.poses) for r in results] == [size * (k + 1) for k in range(len(results))]
+    last = results[-1]
+    scratch = CountMap(slam.config.resolution, slam.config.sensor, size)
+    scratch.update(slam.mount.laser_poses(last.poses), back_end.scans[:len(last.poses)])
+    full = scratch.grid(last.grid)
+    assert full.shape == last.grid.shape and np.count_nonzero(full.data) > 1000
+    np.testing.assert_array_equal(full.data, last.grid.data)
