@@ -4,7 +4,9 @@ Per log, speed and seed it starts the server (``--exit-at-end``), watches its we
 stream to the end, and prints: the live trajectory's relation error and its ratio to
 ``homebot slam``'s on the same log and seed, scans dropped, the worker's CPU seconds per
 log second, and the stream's rates: pose messages and map frames per second (mean, and the
-lowest over any 5 s window while the log plays).
+lowest over any 5 s window while the log plays), and the peak memory of the server's process tree
+(proportional set size summed over the server, its workers and its fork server, sampled each second:
+the shared map block counts once).
 
     python benchmarks/live_replay.py [--logs intel mit-csail] [--speeds max 1] [--seeds 0]
         [--no-offline]
@@ -25,6 +27,7 @@ import socket
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from pathlib import Path
 
@@ -97,6 +100,37 @@ def rates(stamps: list[float], start: float, end: float) -> tuple[float, float]:
     return mean, lowest
 
 
+def tree_pss_mb(root: int) -> float:
+    """Proportional set size of ``root`` and its descendants, MB (shared pages split, not counted twice)."""
+    children: dict[int, list[int]] = {}
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            with contextlib.suppress(OSError, IndexError, ValueError):
+                ppid = int((entry / "stat").read_text().rsplit(")", 1)[1].split()[1])
+                children.setdefault(ppid, []).append(int(entry.name))
+    total_kb, todo = 0, [root]
+    while todo:
+        pid = todo.pop()
+        todo.extend(children.get(pid, []))
+        with contextlib.suppress(OSError):
+            for line in Path(f"/proc/{pid}/smaps_rollup").read_text().splitlines():
+                if line.startswith("Pss:"):
+                    total_kb += int(line.split()[1])
+    return total_kb / 1024
+
+
+class PeakMemory(threading.Thread):
+    """Samples :func:`tree_pss_mb` of a process tree once a second; ``peak_mb`` is the highest sample."""
+
+    def __init__(self, pid: int) -> None:
+        super().__init__(daemon=True)
+        self.pid, self.peak_mb, self.stopped = pid, 0.0, threading.Event()
+
+    def run(self) -> None:
+        while not self.stopped.wait(1.0):
+            self.peak_mb = max(self.peak_mb, tree_pss_mb(self.pid))
+
+
 def replay(log: str, speed: str, seed: int, workdir: Path) -> dict:
     port = free_port()
     data = workdir / f"data-{Path(log).name}-{speed}-{seed}"
@@ -105,10 +139,13 @@ def replay(log: str, speed: str, seed: int, workdir: Path) -> dict:
     proc = subprocess.Popen([sys.executable, "-m", "app.cli", "serve", "--port", str(port),
                              "--data", str(data), "--replay", log, "--speed", speed, "--exit-at-end"],
                             cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    memory = PeakMemory(proc.pid)
+    memory.start()
     try:
         times = asyncio.run(watch(port))
         output, _ = proc.communicate(timeout=4 * 3600)
     finally:
+        memory.stopped.set()
         if proc.poll() is None:
             proc.kill()
     if proc.returncode != 0:
@@ -122,7 +159,7 @@ def replay(log: str, speed: str, seed: int, workdir: Path) -> dict:
     map_mean, map_low = rates(times["map"], first_pose, end)
     error = evaluate_files(out / "trajectory.txt", relations_of(log)).summary()
     return {"stats": stats, "error": error, "pose_hz": (pose_mean, pose_low), "map_hz": (map_mean, map_low),
-            "trajectory": out / "trajectory.txt"}
+            "trajectory": out / "trajectory.txt", "peak_mb": memory.peak_mb}
 
 
 def offline(log: str, seed: int, workdir: Path) -> dict:
@@ -143,8 +180,8 @@ def main() -> int:
     print(f"# {platform.node()}: {os.cpu_count()} cores, {platform.processor() or platform.machine()}, "
           f"load average {os.getloadavg()[0]:.1f}")
     print("| log | speed | seed | live m / deg | offline m | live / offline | dropped | worker CPU s / log s "
-          "| pose Hz mean (lowest 5 s) | map Hz mean (lowest 5 s) | loop edges | wall s |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+          "| pose Hz mean (lowest 5 s) | map Hz mean (lowest 5 s) | loop edges | wall s | peak PSS MB |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     with tempfile.TemporaryDirectory() as tmp:
         workdir = Path(tmp)
         for log in args.logs:
@@ -160,7 +197,8 @@ def main() -> int:
                           f"{e['rot_mean_deg']:.3f} | {ref} | {ratio} | {s['dropped']} of {s['records']} | "
                           f"{s['worker_cpu_s'] / s['log_duration_s']:.3f} | {r['pose_hz'][0]:.1f} "
                           f"({r['pose_hz'][1]:.1f}) | {r['map_hz'][0]:.1f} ({r['map_hz'][1]:.1f}) | "
-                          f"{s.get('loop_edges', 0)} | {s['wall_time_s']:.1f} |", flush=True)
+                          f"{s.get('loop_edges', 0)} | {s['wall_time_s']:.1f} | {r['peak_mb']:.0f} |",
+                          flush=True)
     return 0
 
 
