@@ -33,7 +33,7 @@ from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.rbpf.config import RBPFConfig
 from slam_core.rbpf.correlative import likelihood_window, search
 from slam_core.rbpf.laser_mount import LaserMount
-from slam_core.rbpf.proposal import improved_proposal, match_starts, motion_covariance
+from slam_core.rbpf.proposal import improved_proposal, match_starts
 from slam_core.rbpf.scan_matcher import P_OCCUPIED, beam_rows, match, pose_likelihood
 from slam_core.rbpf.tiled_map import TiledMaps
 from slam_core.rbpf.trajectory_tree import ROOT, TrajectoryTree
@@ -89,7 +89,6 @@ class RBPFSlam:
         self._last_odom: np.ndarray | None = None
         self._last_fit = 0.0
         self._params = self.config.matcher.packed()
-        self._prior = None
 
     # -- the estimator interface --------------------------------------------------
 
@@ -160,7 +159,7 @@ class RBPFSlam:
         beams = self._matching_beams(scan, m.max_range, m.max_beams)
         motion = np.array(decompose(*odom0, *odom1))
         predicted = compose(self.poses, relative(odom0, odom1))
-        error = self._odometry_error(predicted, motion, scan, beams, forced)
+        error = self._odometry_error(predicted, motion, scan, beams)
         starts = compose(predicted, error)
         floor = m.motion_floor()
         if forced:
@@ -226,7 +225,7 @@ class RBPFSlam:
         return fit < self._last_fit - m.mismatch_drop
 
     def _odometry_error(self, predicted: np.ndarray, motion: np.ndarray, scan: Scan,
-                        beams: np.ndarray, forced: bool = False) -> np.ndarray:
+                        beams: np.ndarray) -> np.ndarray:
         """The odometry's error (robot frame), found on the leading particle's map.
 
         The leading particle is matched finely from its prediction turned to a few
@@ -244,12 +243,6 @@ class RBPFSlam:
         pred = predicted[lead]
         res = maps.resolution
         fine = (maps.tables[lead], maps.lo, maps.hits, maps.origin[0], maps.origin[1], res)
-        if forced:
-            self._prior = None
-        else:
-            cov = motion_covariance(self.poses[lead, 2], motion[0], motion[1], motion[2],
-                                    self.config.motion.alphas, m.motion_floor())
-            self._prior = (pred, np.linalg.inv(cov))
         step = m.lead_rotation_step
         headings = np.tile(pred, (2 * m.lead_rotations + 1, 1))
         headings[:, 2] += step * np.arange(-m.lead_rotations, m.lead_rotations + 1)
@@ -274,7 +267,7 @@ class RBPFSlam:
                                 m.coarse_prior_angular + 0.5 * turn)
         x, y, th, _, _ = match(*fine, sx, sy, sth, beams, self._params, m.iterations, m.wide_iterations)
         ll, fitting = pose_likelihood(*fine, x, y, th, beams, self._params)
-        if ll + self._log_prior(np.array([x, y, th])) > best_ll and fitting >= m.good_match * len(beams):
+        if ll > best_ll and fitting >= m.good_match * len(beams):
             best = np.array([x, y, th])
         return relative(pred, best)
 
@@ -311,18 +304,9 @@ class RBPFSlam:
         counts = np.empty(len(starts), np.int64)
         match_starts(*fine, starts, beams, self._params, m.iterations, m.wide_iterations, poses, lls, counts)
         for pose, ll, n in zip(poses, lls, counts.tolist(), strict=True):
-            ll = ll + self._log_prior(pose)
             if ll > best_ll and n >= min_matched:
                 best, best_ll, matched = pose, float(ll), n
         return best, best_ll, matched
-
-    def _log_prior(self, pose: np.ndarray) -> float:
-        if self._prior is None:
-            return 0.0
-        pred, info = self._prior
-        d = pose - pred
-        d[2] = (d[2] + np.pi) % (2 * np.pi) - np.pi
-        return float(-0.5 * d @ info @ d)
 
     def _matching_beams(self, scan: Scan, max_range: float, max_beams: int) -> np.ndarray:
         return beam_rows(scan, min(max_range, self.config.sensor.usable_range), max_beams)
