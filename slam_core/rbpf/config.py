@@ -27,11 +27,7 @@ class MatcherParams:
     on the start pose that settles directions the scan leaves open;
     ``max_beams``: beams used (evenly spread) up to ``max_range``;
     ``min_matched``: the fraction of them that must match, else the particle
-    falls back to the motion model; ``min_matched_beams``: the least number of
-    beams that must match besides, whatever the fraction (a few beams that all
-    match, as outdoors where most echoes lie beyond ``max_range``, may not fix the
-    heading); 30, a sixth of ``max_beams``, is some dozen beams on each of two or
-    three surfaces; ``good_match``: the matched fraction above
+    falls back to the motion model; ``good_match``: the matched fraction above
     which the leading particle's match is trusted without the coarse search;
     ``lead_rotations`` / ``lead_rotation_step``: the leading particle is matched
     from its prediction turned by ``k * lead_rotation_step`` for
@@ -68,7 +64,6 @@ class MatcherParams:
     max_beams: int = 180
     max_range: float = 20.0
     min_matched: float = 0.25
-    min_matched_beams: int = 30
     good_match: float = 0.6
     lead_rotations: int = 3
     check_beams: int = 60

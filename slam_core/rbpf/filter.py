@@ -159,9 +159,7 @@ class RBPFSlam:
         beams = self._matching_beams(scan, m.max_range, m.max_beams)
         motion = np.array(decompose(*odom0, *odom1))
         predicted = compose(self.poses, relative(odom0, odom1))
-        least = max(1.0, m.min_matched * len(beams), float(m.min_matched_beams))
-        # below ``least`` beams no particle can match: all follow the motion model
-        error = np.zeros(3) if len(beams) < least else self._odometry_error(predicted, motion, scan, beams)
+        error = self._odometry_error(predicted, motion, scan, beams)
         starts = compose(predicted, error)
         floor = m.motion_floor()
         if forced:
@@ -174,7 +172,7 @@ class RBPFSlam:
         improved_proposal(self.maps.tables, self.maps.lo, self.maps.hits, self.maps.origin[0],
                           self.maps.origin[1], self.maps.resolution, self.poses, starts, motion,
                           c.motion.alphas, beams, self._params, m.iterations, m.wide_iterations,
-                          least, floor, noise,
+                          max(1.0, m.min_matched * len(beams)), floor, noise,
                           new_poses, log_eta, matched)
         self.poses = new_poses
         log_eta = log_eta / m.gain
