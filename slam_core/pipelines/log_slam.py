@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from slam_core.count_map import CountMap
+from slam_core.count_map import render
 from slam_core.geometry import compose, relative
 from slam_core.graph.loop_closure import LoopClosureResult, close_loops, per_scan_poses, scan_poses
 from slam_core.io.carmen import TruncatedLogError, laser_mount_of, laser_records
@@ -165,7 +165,6 @@ def close_filter_loops(config: RBPFConfig, mount: LaserMount, best: BestUpdates,
                        config.matcher, config.sensor, mount)
     del submaps
     update_poses = np.vstack([closed.poses[:first], final[is_update]])
-    counts = CountMap(config.resolution, config.sensor, lc.submap_updates)
-    counts.update(mount.laser_poses(update_poses), update_scans)
-    grid = counts.grid()
+    grid = render(mount.laser_poses(update_poses), update_scans, config.resolution, config.sensor,
+                  lc.submap_updates)
     return final, grid, closed, BestUpdates(update_poses, best.odometry)
