@@ -14,6 +14,7 @@ than :data:`MOVE_CELLS` of a cell or :data:`MOVE_RAD`) and the ones that are new
 Cells are on the absolute lattice (cell ``(ix, iy)`` spans ``[ix, ix + 1) * resolution``), and
 the dense counts grow in chunks of :data:`~slam_core.occupancy_grid.GROW_CHUNK` cells aligned
 to it, as an :class:`~slam_core.occupancy_grid.OccupancyGrid` started empty does.
+:func:`render` gives the same grid once, for a finished log, without keeping the counts.
 """
 
 from __future__ import annotations
