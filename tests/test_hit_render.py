@@ -29,18 +29,25 @@ def scans_with_every_kind_of_beam(rng, poses) -> list[Scan]:
     return scans
 
 
-def test_rendered_hit_sums_equal_the_filter_maps_own():
-    rng = np.random.default_rng(7)
-    model = SensorModel(usable_range=5.0)
-    poses = np.column_stack([rng.uniform(-2, 3, 25), rng.uniform(-1.5, 2.5, 25), rng.uniform(-3, 3, 25)])
+MODEL = SensorModel(usable_range=5.0)
+
+
+def filter_mapped(seed: int, n: int):
+    """``n`` random poses in the room, their scans, and the filter's own map of them with its hit sums."""
+    rng = np.random.default_rng(seed)
+    poses = np.column_stack([rng.uniform(-2, 3, n), rng.uniform(-1.5, 2.5, n), rng.uniform(-3, 3, n)])
     scans = scans_with_every_kind_of_beam(rng, poses)
-    maps = TiledMaps(1, 0.05, model)
+    maps = TiledMaps(1, 0.05, MODEL)
     for pose, scan in zip(poses, scans, strict=True):
         maps.integrate(pose[None], scan)
-    grid, expected = maps.to_grid(0), maps.hit_sums(0)
+    return poses, scans, maps.to_grid(0), maps.hit_sums(0)
+
+
+def test_rendered_hit_sums_equal_the_filter_maps_own():
+    poses, scans, grid, expected = filter_mapped(7, 25)
     assert expected[..., HIT_N].sum() > 1500  # many echoes, some cells hit many times
     hits = np.zeros_like(expected)
-    outside = add_hit_sums(hits, grid.origin, grid.resolution, poses, scans, model.usable_range)
+    outside = add_hit_sums(hits, grid.origin, grid.resolution, poses, scans, MODEL.usable_range)
     assert outside == 0
     assert np.array_equal(hits[..., HIT_N], expected[..., HIT_N])
     np.testing.assert_allclose(hits, expected, atol=2e-5)
@@ -48,7 +55,7 @@ def test_rendered_hit_sums_equal_the_filter_maps_own():
     wide = np.zeros((expected.shape[0] + 10, expected.shape[1] + 6, 3), np.float32)
     origin = grid.origin - np.array([4, 7]) * grid.resolution
     for part in (slice(0, 11), slice(11, None)):
-        add_hit_sums(wide, origin, grid.resolution, poses[part], scans[part], model.usable_range)
+        add_hit_sums(wide, origin, grid.resolution, poses[part], scans[part], MODEL.usable_range)
     np.testing.assert_allclose(wide[7:7 + expected.shape[0], 4:4 + expected.shape[1]], expected, atol=2e-5)
     assert wide[..., HIT_N].sum() == expected[..., HIT_N].sum()
 
@@ -64,15 +71,8 @@ def test_echoes_outside_the_grid_are_counted_not_added():
 
 
 def test_sparse_hit_sums_equal_the_filter_maps_own_and_move_onto_larger_grids():
-    rng = np.random.default_rng(9)
-    model = SensorModel(usable_range=5.0)
-    poses = np.column_stack([rng.uniform(-2, 3, 20), rng.uniform(-1.5, 2.5, 20), rng.uniform(-3, 3, 20)])
-    scans = scans_with_every_kind_of_beam(rng, poses)
-    maps = TiledMaps(1, 0.05, model)
-    for pose, scan in zip(poses, scans, strict=True):
-        maps.integrate(pose[None], scan)
-    grid, expected = maps.to_grid(0), maps.hit_sums(0)
-    first, second = (sparse_hit_sums(grid, poses[part], scans[part], model.usable_range)
+    poses, scans, grid, expected = filter_mapped(9, 20)
+    first, second = (sparse_hit_sums(grid, poses[part], scans[part], MODEL.usable_range)
                      for part in (slice(0, 9), slice(9, None)))
     both = first.plus(second)
     assert len(both.cells) < len(first.cells) + len(second.cells)  # cells hit in both parts, summed
