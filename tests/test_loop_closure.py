@@ -45,6 +45,28 @@ def test_branch_and_bound_finds_the_exhaustive_searchs_optimum(seed, block):
     assert abs(bounded[3] - exhaustive[3]) <= 1e-5 * max(1.0, exhaustive[3])
 
 
+@settings(max_examples=15, deadline=None)
+@given(st.integers(0, 10_000), st.integers(0, 3), st.integers(0, 2))
+def test_branch_and_bound_skips_a_region_and_finds_the_best_pose_outside_it(seed, skip_cells, skip_steps):
+    """Against every pose of the window scored one by one, those in the skipped region left out."""
+    rng = np.random.default_rng(seed)
+    field = np.where(rng.random((80, 90)) < 0.08, rng.random((80, 90)), 0.0).astype(np.float32)
+    points = rng.uniform(-1.5, 1.5, (30, 2))
+    px, py, pth = rng.uniform(1.8, 2.5), rng.uniform(1.8, 2.2), rng.uniform(-np.pi, np.pi)
+    cells, n_rot, step = 5, 3, 0.02
+    sx, sr = rng.integers(-cells, cells + 1, 2), rng.integers(-n_rot, n_rot + 1)
+    skip = (px + sx[0] * 0.05, py + sx[1] * 0.05, pth + sr * step)
+    scores = [search(field, 0.05, 0.0, 0.0, px + dx * 0.05, py + dy * 0.05, pth + r * step, points, 0.0, step,
+                     0, 1e9, 1e9)[3]
+              for r in range(-n_rot, n_rot + 1)
+              for dy in range(-cells, cells + 1) for dx in range(-cells, cells + 1)
+              if not (abs(dx - sx[0]) <= skip_cells and abs(dy - sx[1]) <= skip_cells
+                      and abs(r - sr) <= skip_steps)]
+    _, _, _, runner_up = bounded_search(field, max_pool(field, 3), 3, 0.05, 0.0, 0.0, px, py, pth, points,
+                                        n_rot * step, step, cells, *skip, skip_cells, skip_steps)
+    assert abs(runner_up - max(scores)) <= 1e-5 * max(1.0, max(scores))
+
+
 def test_max_pool_is_the_maximum_over_each_block():
     rng = np.random.default_rng(3)
     field = rng.random((9, 11)).astype(np.float32)

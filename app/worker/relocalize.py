@@ -13,8 +13,9 @@ map's likelihood field, each refined by the Gauss-Newton scan matcher:
 2. global: the whole map, every heading, by branch and bound (Hess et al., ICRA 2016).
 
 A pose is accepted only when at least :data:`ACCEPT_FIT` of the scan's beams then find a
-surface; otherwise the robot stays "not localized" and the next scan tries again. (A home
-with two rooms alike could fool the global search; nothing checks for a runner-up yet.)
+surface; otherwise the robot stays "not localized" and the next scan tries again. A home with
+two rooms alike must not fool the global search: it also finds its best pose elsewhere (the
+runner-up, refined alike) and accepts only a best pose that fits :data:`RUNNER_UP_MARGIN` better.
 """
 
 from __future__ import annotations
@@ -42,6 +43,14 @@ GLOBAL_ANGULAR_STEP = 0.02
 ACCEPT_FIT = 0.8
 #: Side (cells) of the blocks the branch and bound search bounds first.
 BLOCK_CELLS = 8
+#: The global search's runner-up is its best pose farther than these from the best (m, rad) ...
+SKIP_M = 1.0
+SKIP_HEADING = 0.5
+#: ... and, once refined, a place of its own unless within these of the best pose (m, rad).
+SAME_PLACE_M = 0.3
+SAME_HEADING = 0.2
+#: The best pose is accepted only when it fits this much better than a runner-up of its own.
+RUNNER_UP_MARGIN = 0.05
 
 
 @dataclass(frozen=True)
@@ -93,16 +102,25 @@ class Relocalizer:
         pose, fit = self._refine(start, beams)
         if fit >= ACCEPT_FIT:
             return Fix(pose, fit, "local")
-        centre = self.maps.origin + (self.centre + 0.5) * res
-        start = self._search(points, np.array([*centre, 0.0]), self.half, np.pi, GLOBAL_ANGULAR_STEP)
+        whole = np.array([*(self.maps.origin + (self.centre + 0.5) * res), 0.0])
+        start = self._search(points, whole, self.half, np.pi, GLOBAL_ANGULAR_STEP)
         pose, fit = self._refine(start, beams)
-        return Fix(pose, fit, "global") if fit >= ACCEPT_FIT else None
+        if fit < ACCEPT_FIT:
+            return None
+        other = self._search(points, whole, self.half, np.pi, GLOBAL_ANGULAR_STEP, skip=start)
+        other, other_fit = self._refine(other, beams)
+        alike = (np.hypot(*(other[:2] - pose[:2])) <= SAME_PLACE_M
+                 and abs(wrap_angle(other[2] - pose[2])) <= SAME_HEADING)
+        return Fix(pose, fit, "global") if alike or other_fit <= fit - RUNNER_UP_MARGIN else None
 
     def _search(self, points: np.ndarray, around: np.ndarray, linear_cells: int, angular_half: float,
-                angular_step: float) -> np.ndarray:
-        x, y, th, _ = bounded_search(self.field, self.pooled, BLOCK_CELLS, self.maps.resolution,
-                                     self.corner[0], self.corner[1], around[0], around[1], around[2],
-                                     points, angular_half, angular_step, linear_cells)
+                angular_step: float, skip: np.ndarray | None = None) -> np.ndarray:
+        """The correlative search's best pose; with ``skip``, the best one away from that pose."""
+        res = self.maps.resolution
+        skipping = () if skip is None else (*skip, round(SKIP_M / res), round(SKIP_HEADING / angular_step))
+        x, y, th, _ = bounded_search(self.field, self.pooled, BLOCK_CELLS, res, self.corner[0],
+                                     self.corner[1], around[0], around[1], around[2], points,
+                                     angular_half, angular_step, linear_cells, *skipping)
         return np.array([x, y, wrap_angle(th)])
 
     def _refine(self, start: np.ndarray, beams: np.ndarray) -> tuple[np.ndarray, float]:

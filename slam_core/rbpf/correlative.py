@@ -171,13 +171,18 @@ def max_pool(field, block):
 
 @njit
 def bounded_search(field, pooled, block, resolution, window_x, window_y, px, py, pth, points,
-                   angular_half, angular_step, linear_cells):
+                   angular_half, angular_step, linear_cells, skip_x=0.0, skip_y=0.0, skip_th=0.0,
+                   skip_cells=-1, skip_steps=0):
     """The best pose ``(x, y, th, score)`` of an exhaustive search without prior, found by
     branch and bound (Hess et al., ICRA 2016, with one level).
 
     ``pooled`` is ``max_pool(field, block)``: its sum at a block's first offset bounds the
     score of every offset in the block, so blocks are scored in the order of their bounds
     until no bound beats the best score found.
+
+    With ``skip_cells >= 0`` the poses within ``skip_cells`` cells (each axis) and ``skip_steps``
+    heading steps of ``(skip_x, skip_y, skip_th)`` are left out: the best pose elsewhere, the
+    runner-up to that one. Headings are compared around the full turn.
     """
     n_rot, cells_x, cells_y = rotated_endpoint_cells(px, py, pth, points, window_x, window_y, resolution,
                                                      angular_half, angular_step)
@@ -194,6 +199,9 @@ def bounded_search(field, pooled, block, resolution, window_x, window_y, px, py,
     order = np.argsort(-bounds)
     best = -1.0
     bx_best, by_best, r_best = 0, 0, n_rot
+    skip_dx = round((skip_x - px) / resolution)
+    skip_dy = round((skip_y - py) / resolution)
+    turn = round(2.0 * np.pi / angular_step)
     for k in range(order.shape[0]):
         idx = order[k]
         if bounds[idx] <= best:
@@ -203,6 +211,10 @@ def bounded_search(field, pooled, block, resolution, window_x, window_y, px, py,
         bx = idx % blocks
         for dy in range(by * block - linear_cells, min((by + 1) * block, width) - linear_cells):
             for dx in range(bx * block - linear_cells, min((bx + 1) * block, width) - linear_cells):
+                if skip_cells >= 0 and abs(dx - skip_dx) <= skip_cells and abs(dy - skip_dy) <= skip_cells:
+                    steps = abs(round((pth + (r - n_rot) * angular_step - skip_th) / angular_step)) % turn
+                    if min(steps, turn - steps) <= skip_steps:
+                        continue
                 total = _score(field, cells_x[r], cells_y[r], dx, dy)
                 if total > best:
                     best = total
