@@ -134,7 +134,8 @@ class HomebotServer:
 
     def api(self, method: str, path: str, **kwargs) -> httpx.Response:
         headers = {"Authorization": f"Bearer {self.token}"}
-        return httpx.request(method, self.url + "api/" + path, headers=headers, timeout=10, **kwargs)
+        # longer than the server's own wait for a mode switch (then 202) on a busy machine
+        return httpx.request(method, self.url + "api/" + path, headers=headers, timeout=30, **kwargs)
 
     def wait_ready(self) -> None:
         """Until the token exists, the API answers and the worker has published a pose and a map."""

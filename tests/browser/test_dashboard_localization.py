@@ -75,7 +75,7 @@ def test_a_mapping_session_is_saved_and_continued_from_the_dashboard(page, homeb
     server = homebot_server
     # a new map: its loop-closing back end holds every update (a loaded map has no back end)
     r = server.api("PUT", "mode", json={"mode": "mapping", "new_map": True})
-    assert r.status_code == 200, r.text
+    assert r.status_code in (200, 202), r.text  # 202: still switching; the worker takes commands in order
     status = drive(server, KITCHEN)
     assert status["nav"]["state"] == "arrived", status["nav"]
     open_dashboard(page, server)
