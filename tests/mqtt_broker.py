@@ -3,37 +3,15 @@
 from __future__ import annotations
 
 import getpass
-import os
-import shutil
 import socket
 import subprocess
 import time
 from pathlib import Path
 
+from tests.debian import system_tool
 from tests.live_server import free_port
 
-APT_TIMEOUT_S = 900
 START_TIMEOUT_S = 10.0
-#: Debian installs the broker in /usr/sbin, which is not on every PATH.
-SEARCH_PATH = f"{os.environ.get('PATH', '')}:/usr/sbin:/usr/local/sbin"
-
-
-def _apt(*args: str) -> None:
-    env = {**os.environ, "DEBIAN_FRONTEND": "noninteractive"}
-    done = subprocess.run(["apt-get", *args], env=env, capture_output=True, text=True, timeout=APT_TIMEOUT_S)
-    if done.returncode != 0:
-        raise RuntimeError(f"apt-get {' '.join(args)} failed ({done.returncode}):\n{done.stderr[-2000:]}")
-
-
-def system_tool(command: str, package: str) -> str:
-    """The path of ``command``; Debian's ``package`` is installed with apt-get when it is missing."""
-    path = shutil.which(command, path=SEARCH_PATH)
-    if path is None:
-        _apt("update")
-        _apt("install", "-y", "--no-install-recommends", package)
-        path = shutil.which(command, path=SEARCH_PATH)
-    assert path, f"{command} is not installed even after apt-get install -y {package}"
-    return path
 
 
 def mosquitto_path() -> str:

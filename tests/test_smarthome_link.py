@@ -12,7 +12,8 @@ import pytest
 from app.core.config import Settings
 from app.smarthome.link import MqttLink
 from app.smarthome.topics import Topics
-from tests.mqtt_broker import Mosquitto, system_tool
+from tests.debian import system_tool
+from tests.mqtt_broker import Mosquitto
 from tests.mqtt_observer import Observer
 
 TOPICS = Topics("linktest", "homeassistant", "linktest")

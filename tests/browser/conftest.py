@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import functools
 import os
-import shutil
 import signal
 import socket
 import subprocess
@@ -22,6 +21,8 @@ import httpx
 import pytest
 from playwright.sync_api import sync_playwright
 
+from tests.debian import system_tool
+
 REPO = Path(__file__).resolve().parents[2]
 STATIC = REPO / "static"
 ARTIFACTS = REPO / "test-artifacts"
@@ -33,26 +34,12 @@ CHROMIUM_ARGS = [
     "--disable-sync",
     "--no-first-run",
 ]
-APT_TIMEOUT_S = 900
-
-
-def _apt(*args: str) -> None:
-    env = {**os.environ, "DEBIAN_FRONTEND": "noninteractive"}
-    done = subprocess.run(["apt-get", *args], env=env, capture_output=True, text=True, timeout=APT_TIMEOUT_S)
-    if done.returncode != 0:
-        raise RuntimeError(f"apt-get {' '.join(args)} failed ({done.returncode}):\n{done.stderr[-2000:]}")
 
 
 @pytest.fixture(scope="session")
 def chromium_path() -> str:
-    """The system chromium; installed with apt-get (Debian's ``chromium`` package) when missing."""
-    path = shutil.which("chromium")
-    if path is None:
-        _apt("update")
-        _apt("install", "-y", "--no-install-recommends", "chromium")
-        path = shutil.which("chromium")
-    assert path, "chromium is not on PATH even after apt-get install -y chromium"
-    return path
+    """The system chromium (Debian's ``chromium`` package)."""
+    return system_tool("chromium", "chromium")
 
 
 @pytest.fixture(scope="module")
