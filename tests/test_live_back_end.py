@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from app.worker import live_back_end
 from app.worker.live_back_end import LiveBackEnd
 from slam_core.count_map import CountMap
 from slam_core.rbpf.config import RBPFConfig
@@ -34,3 +35,32 @@ def test_solves_without_moved_poses_trace_the_newest_submap_only_and_equal_a_ful
     full = scratch.grid(last.grid)
     assert full.shape == last.grid.shape and np.count_nonzero(full.data) > 1000
     np.testing.assert_array_equal(full.data, last.grid.data)
+
+
+def test_a_failed_solve_is_reported_once_and_the_next_submap_solves_again(monkeypatch, capsys):
+    slam = RBPFSlam(RBPFConfig(particles=1, linear_update=0.1, angular_update=0.1), seed=4)
+    back_end = LiveBackEnd.attached_to(slam)
+    real, calls = live_back_end.close_loops, []
+
+    def first_fails(*args, **kwargs):  # a fault injected into the first solve only
+        calls.append(len(args[0]))
+        if len(calls) == 1:
+            raise FloatingPointError("injected")
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(live_back_end, "close_loops", first_fails)
+    failures, results = [], []
+    for i in range(64):
+        pose = np.array([-1.2 + 0.03 * i, -0.3 + 0.01 * i, 0.11 * i])
+        scan = room_scan(pose)
+        if slam.step(pose, scan):
+            back_end.updated(slam, scan)
+            back_end.wait()
+            failures.append(back_end.failure())
+            results.append(back_end.take())
+    reported = [f for f in failures if f is not None]
+    assert reported == ["FloatingPointError: injected"]
+    assert "FloatingPointError" in capsys.readouterr().err  # the traceback is in the worker's log
+    after = [r for r, f in zip(results, failures, strict=True) if r is not None]
+    assert len(calls) >= 3 and results[failures.index(reported[0])] is None
+    assert [len(r.poses) for r in after] == calls[1:]  # every later solve finished, on all updates so far

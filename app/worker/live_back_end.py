@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import threading
 import time
+import traceback
 from dataclasses import dataclass
 
 import numpy as np
@@ -82,6 +83,7 @@ class LiveBackEnd:
         self.solves = 0
         self._thread: threading.Thread | None = None
         self._done: BackEndResult | None = None
+        self._failure: str | None = None  # why the last solve raised, until taken
         self._lock = threading.Lock()
         self._memory: LoopMemory | None = None  # the last solve's (read and written by solves only)
         self._full_at = 0  # updates at the last full solve
@@ -137,6 +139,16 @@ class LiveBackEnd:
         return MappingSession(self.config, self.mount, np.vstack([old, poses]), odometry, scans, end_pose)
 
     def _solve(self, poses: np.ndarray, scans: list[Scan], layout: OccupancyGrid) -> None:
+        """One solve; one that raises leaves its reason for :meth:`failure` (and its traceback in
+        the worker's log), and the next completed submap starts the next."""
+        try:
+            self._solve_once(poses, scans, layout)
+        except Exception as exc:  # a thread's exception would only be printed
+            traceback.print_exc()
+            with self._lock:
+                self._failure = f"{type(exc).__name__}: {exc}"
+
+    def _solve_once(self, poses: np.ndarray, scans: list[Scan], layout: OccupancyGrid) -> None:
         started = time.perf_counter()
         c = self.config
         memory = self._memory if len(poses) < FULL_SOLVE_GROWTH * self._full_at else None
@@ -158,6 +170,12 @@ class LiveBackEnd:
         with self._lock:
             result, self._done = self._done, None
         return result
+
+    def failure(self) -> str | None:
+        """Why the last solve failed, if it did and this was not asked since."""
+        with self._lock:
+            failure, self._failure = self._failure, None
+        return failure
 
     def wait(self) -> None:
         """Let a running solve finish (its result is dropped unless taken)."""

@@ -62,6 +62,10 @@ class LoopClosing:
             laser = estimator.poses[estimator.best_index()]  # the filter's poses are the laser's
             self.published_grid.integrate(scan, compose(self.solved.correction, laser))
 
+    def failure(self) -> str | None:
+        """Why the back end's last solve failed, once (see :meth:`LiveBackEnd.failure`)."""
+        return self.back_end.failure() if self.back_end is not None else None
+
     def take(self, estimator) -> np.ndarray | None:
         """Use a finished solve: its correction, and its map with the updates since drawn in.
         Returns the published pose's jump ``[dx, dy, dyaw]`` when the solve closed a loop."""

@@ -504,7 +504,10 @@ class Worker:
 
     def _take_back_end(self) -> None:
         """Use a finished solve (:class:`~app.worker.loop_closing.LoopClosing`); one that closed a
-        loop is an event with the published pose's jump."""
+        loop is an event with the published pose's jump, one that failed an error event."""
+        failure = self.loops.failure()
+        if failure is not None:
+            self._event("error", detail=f"loop closing failed ({failure}); the next submap solves again")
         jump = self.loops.take(self.estimator)
         if jump is not None:
             self._event("loop_closed", closures=self.loops.closures, loop_edges=self.loops.solved.loop_edges,
