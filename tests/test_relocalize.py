@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import itertools
 from dataclasses import replace
 
 import numpy as np
@@ -22,17 +21,6 @@ POSE_TOLERANCE_M = 0.05
 HEADING_TOLERANCE = 0.03
 
 
-def tour_poses(world, step: float = 0.1) -> np.ndarray:
-    """Poses every ``step`` metres along the world's tour, heading along it."""
-    points = np.vstack([world.start[:2], world.tour])
-    poses = []
-    for a, b in itertools.pairwise(points):
-        heading = np.arctan2(*(b - a)[::-1])
-        for t in np.arange(0.0, 1.0, step / max(np.hypot(*(b - a)), step)):
-            poses.append([*(a + t * (b - a)), heading])
-    return np.array(poses)
-
-
 @pytest.fixture(scope="module")
 def flat_map():
     """The flat mapped from its tour's true poses: the world, grid, hit sums and poses."""
@@ -40,7 +28,7 @@ def flat_map():
     lidar = Lidar(world)
     rng = np.random.default_rng(0)
     maps = TiledMaps(1, 0.05)
-    poses = tour_poses(world)
+    poses = world.tour_poses()
     for pose in poses:
         maps.integrate(pose[None, :], lidar.scan(pose, rng))
     grid = maps.to_grid(0)

@@ -89,29 +89,45 @@ class Relocalizer:
         fix = self._locate_laser(scan, self.mount.laser_poses(np.asarray(guess, float)))
         return fix if fix is None else Fix(self.mount.robot_poses(fix.pose), fix.fit, fix.search)
 
+    def global_search(self, scan: Scan) -> tuple[Fix, Fix | None]:
+        """The global search's best laser pose and its runner-up, both refined (``None`` for a
+        runner-up that refines back onto the best pose): what :meth:`locate` weighs."""
+        points, beams = self._rows(scan)
+        return self._global(points, beams, 0.0)
+
     def _locate_laser(self, scan: Scan, guess: np.ndarray) -> Fix | None:
         """The laser's pose in the map from its ``scan``, searched around the laser pose ``guess``."""
-        matcher = self.config.matcher
-        points = beam_rows(scan, matcher.coarse_range, matcher.coarse_beams)[:, :2]
-        beams = beam_rows(scan, matcher.max_range, matcher.max_beams)
+        points, beams = self._rows(scan)
         if len(beams) < 10:
             return None
-        res = self.maps.resolution
-        start = self._search(points, guess, int(np.ceil(LOCAL_LINEAR_M / res)), LOCAL_ANGULAR,
-                             matcher.coarse_angular_step)
+        cells = int(np.ceil(LOCAL_LINEAR_M / self.maps.resolution))
+        start = self._search(points, guess, cells, LOCAL_ANGULAR, self.config.matcher.coarse_angular_step)
         pose, fit = self._refine(start, beams)
         if fit >= ACCEPT_FIT:
             return Fix(pose, fit, "local")
-        whole = np.array([*(self.maps.origin + (self.centre + 0.5) * res), 0.0])
-        start = self._search(points, whole, self.half, np.pi, GLOBAL_ANGULAR_STEP)
-        pose, fit = self._refine(start, beams)
-        if fit < ACCEPT_FIT:
+        best, runner_up = self._global(points, beams, ACCEPT_FIT)
+        if best.fit < ACCEPT_FIT or (runner_up is not None and runner_up.fit > best.fit - RUNNER_UP_MARGIN):
             return None
-        other = self._search(points, whole, self.half, np.pi, GLOBAL_ANGULAR_STEP, skip=start)
-        other, other_fit = self._refine(other, beams)
-        alike = (np.hypot(*(other[:2] - pose[:2])) <= SAME_PLACE_M
-                 and abs(wrap_angle(other[2] - pose[2])) <= SAME_HEADING)
-        return Fix(pose, fit, "global") if alike or other_fit <= fit - RUNNER_UP_MARGIN else None
+        return best
+
+    def _rows(self, scan: Scan) -> tuple[np.ndarray, np.ndarray]:
+        """The scan's endpoints for the coarse search and its beams for the fine matcher."""
+        matcher = self.config.matcher
+        return (beam_rows(scan, matcher.coarse_range, matcher.coarse_beams)[:, :2],
+                beam_rows(scan, matcher.max_range, matcher.max_beams))
+
+    def _global(self, points: np.ndarray, beams: np.ndarray, min_fit: float) -> tuple[Fix, Fix | None]:
+        """The best pose of the whole map and, when it fits at least ``min_fit``, its runner-up."""
+        whole = np.array([*(self.maps.origin + (self.centre + 0.5) * self.maps.resolution), 0.0])
+        start = self._search(points, whole, self.half, np.pi, GLOBAL_ANGULAR_STEP)
+        best = Fix(*self._refine(start, beams), "global")
+        if best.fit < min_fit:
+            return best, None
+        elsewhere = self._search(points, whole, self.half, np.pi, GLOBAL_ANGULAR_STEP, skip=start)
+        other = Fix(*self._refine(elsewhere, beams), "global")
+        alike = (np.hypot(*(other.pose[:2] - best.pose[:2])) <= SAME_PLACE_M
+                 and abs(wrap_angle(other.pose[2] - best.pose[2])) <= SAME_HEADING)
+        return best, None if alike else other
 
     def _search(self, points: np.ndarray, around: np.ndarray, linear_cells: int, angular_half: float,
                 angular_step: float, skip: np.ndarray | None = None) -> np.ndarray:

@@ -117,6 +117,17 @@ class World:
         """Waypoint positions ``(k, 2)`` in file order."""
         return np.array([[w.x, w.y] for w in self.waypoints], dtype=float).reshape(-1, 2)
 
+    def tour_poses(self, step: float = 0.1) -> np.ndarray:
+        """Poses ``(n, 3)`` every ``step`` metres along the straight legs from the start through the
+        waypoints, each heading along its leg."""
+        points = np.vstack([self.start[:2], self.tour])
+        poses = []
+        for a, b in itertools.pairwise(points):
+            heading = math.atan2(*(b - a)[::-1])
+            for t in np.arange(0.0, 1.0, step / max(math.hypot(*(b - a)), step)):
+                poses.append([*(a + t * (b - a)), heading])
+        return np.array(poses).reshape(-1, 3)
+
     def bounds(self) -> tuple[float, float, float, float]:
         """``(xmin, ymin, xmax, ymax)`` of all geometry."""
         xs = np.concatenate([self.segments[:, 0], self.segments[:, 2],
