@@ -263,7 +263,7 @@ class MonteCarloLocalizer:
         odom = np.asarray(odometry, dtype=np.float64).reshape(-1)
         if odom.shape != (3,) or not np.all(np.isfinite(odom)):
             raise ValueError(f"odometry must be three finite numbers (x, y, theta), got {odom}")
-        if self._lost is not None:
+        if self._lost is not None:  # move the lost track's pose on (the previous scan's odometry)
             step = relative(self._published_odom, odom)
             self._lost = compose(self._lost, step)
             self._lost_travel += float(np.hypot(step[0], step[1]))

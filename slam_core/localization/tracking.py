@@ -28,7 +28,6 @@ does the former on every scan:
    up to ``occluded_travel`` metres of odometry without counting a miss (but says it is
    *occluded*: the pose is odometry's, not the map's).
 
-
 The tracker is (re)started from a known start, from the particle filter's main
 cluster once it has converged and matches well there, or from the best of the
 filter's heaviest particles refined by the matcher. A track started from the
