@@ -19,6 +19,18 @@ main cluster, and moves there when the converged cloud disagrees with it and
 the scan fits there at least as well.
 While the track holds no random particles are injected, and once it is
 confirmed the robot is *localized*.
+
+A confirmed track lost because the map explained too little of the scans (ranges beyond what it
+holds, fog) is not a wrong pose: as AMCL users expect, the robot is still about where the
+odometry says. The filter restarts *around* that pose (the lost track's pose moved on by the
+odometry), with a spread growing with the odometry's travel since the track's last match
+(``recover_xy``, ``recover_theta`` and their growth per metre), random particles are injected
+there rather than anywhere, and on each filter update a new track is tried at that pose (where
+the scan fits as well as the lost track's usually did, see :meth:`PoseTracker.try_resume`) or
+at the converged cloud's; the new track must confirm itself like any other before the robot is
+localized again (while it is not confirmed, the search goes on from its pose if it is dropped).
+Only after ``recover_travel`` metres without a track, or when the scan that lost the track fits
+the map well far from that pose (a kidnapping), does the filter start over globally.
 """
 
 from __future__ import annotations
@@ -28,7 +40,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from slam_core.estimator import Estimate
-from slam_core.geometry import relative, wrap_angle
+from slam_core.geometry import compose, relative, wrap_angle
 from slam_core.localization.beam_model import BeamModel, BeamModelParams
 from slam_core.localization.beams import select_beams
 from slam_core.localization.clustering import Cluster, main_cluster
@@ -105,6 +117,15 @@ class MclConfig:
     global_seeded: float = 0.5
     global_beams: int = 60
     global_range: float = 15.0
+    #: A lost confirmed track (see the module doc) restarts the filter around its odometry pose with
+    #: standard deviations ``recover_xy + recover_xy_per_m * d`` (m) and ``recover_theta +
+    #: recover_theta_per_m * d`` (rad), ``d`` the odometry travel since its last match, before a
+    #: global restart after ``recover_travel`` (m) of that travel without a new track.
+    recover_xy: float = 0.3
+    recover_xy_per_m: float = 0.1
+    recover_theta: float = np.radians(5.0)
+    recover_theta_per_m: float = np.radians(1.0)
+    recover_travel: float = 30.0
     #: Along a confirmed track the published position moves per scan at most this much (m) more
     #: than the odometry did (the heading is corrected at once: holding it back would carry the
     #: position off).
@@ -161,6 +182,9 @@ class MonteCarloLocalizer:
         self._track_confirmed = False  # whether the track was confirmed after the previous scan
         self._global_search: GlobalSearch | None = None  # built at the first global start
         self._seed_pending = False  # a global start waits for a scan to seed the particles
+        self._lost: np.ndarray | None = None  # a lost track's pose moved on by the odometry (recovery)
+        self._lost_travel = 0.0  # odometry travel since that track's last match
+        self._lost_fit = 0.0  # and its usual fit
         self.tracker = PoseTracker(self.map, self.config.tracking)
         self._badly_converged = 0
         self.filter_updated = False
@@ -177,6 +201,27 @@ class MonteCarloLocalizer:
         self._reset(self.map.sample_free_poses(self.config.max_particles, self.rng))
         self.tracker.lose()
         self._seed_pending = True
+        self._lost = None
+
+    def _recover(self, pose: np.ndarray, travel: float, fit: float) -> None:
+        """Restart the filter around the lost track's ``pose``, ``travel`` m of odometry after its
+        last match, where it usually fitted at ``fit`` (see the module doc)."""
+        self._lost, self._lost_travel, self._lost_fit = pose.copy(), travel, fit
+        self._reset(self._around_lost(self.config.max_particles))
+        self._seed_pending = False
+
+    def _recover_spread(self, travel: float) -> tuple[float, float]:
+        """Standard deviations (m, rad) of a restart around a track lost ``travel`` m ago."""
+        cfg = self.config
+        return (cfg.recover_xy + cfg.recover_xy_per_m * travel,
+                cfg.recover_theta + cfg.recover_theta_per_m * travel)
+
+    def _around_lost(self, n: int) -> np.ndarray:
+        """``n`` poses drawn around the lost track's odometry pose, spread by the travel since."""
+        xy, theta = self._recover_spread(self._lost_travel)
+        poses = self._lost + self.rng.normal(0.0, 1.0, (n, 3)) * (xy, xy, theta)
+        poses[:, 2] = wrap_angle(poses[:, 2])
+        return poses
 
     def set_pose(self, pose, covariance=None) -> None:
         """"I am here": particles drawn from a Gaussian around ``pose`` (x, y, theta)."""
@@ -194,6 +239,7 @@ class MonteCarloLocalizer:
         self._reset(particles)
         self.tracker.start(pose)
         self._seed_pending = False
+        self._lost = None
 
     def _reset(self, particles: np.ndarray) -> None:
         self.particles = np.ascontiguousarray(particles, dtype=np.float64)
@@ -217,6 +263,12 @@ class MonteCarloLocalizer:
         odom = np.asarray(odometry, dtype=np.float64).reshape(-1)
         if odom.shape != (3,) or not np.all(np.isfinite(odom)):
             raise ValueError(f"odometry must be three finite numbers (x, y, theta), got {odom}")
+        if self._lost is not None:  # move the lost track's pose on (the previous scan's odometry)
+            step = relative(self._published_odom, odom)
+            self._lost = compose(self._lost, step)
+            self._lost_travel += float(np.hypot(step[0], step[1]))
+            if not self.tracker.tracking and self._lost_travel > self.config.recover_travel:
+                self.global_localization()
         self.tracker.predict(odom)
         self.filter_updated = self._filter_step(odom, scan)
         self._track(scan, self.filter_updated)
@@ -287,15 +339,21 @@ class MonteCarloLocalizer:
         t = self.tracker
         points = tracking_points(scan, cfg.laser_pose, cfg.tracking.beams, cfg.tracking.max_range)
         if t.tracking:
-            was_confirmed = t.confirmed
+            was_confirmed, predicted, usual = t.confirmed, t.pose.copy(), t.usual_fit or 0.0
             t.correct(points, cfg.laser_pose[:2])
             if not t.tracking:  # lost (or carried off): the cloud's pose, or start over
                 found = self._converged() and t.try_start(self.main_cluster().pose, points)
                 if not found and was_confirmed:
-                    self.global_localization()
+                    if self._fits_elsewhere(scan, points, predicted, t.unmatched_travel):
+                        self.global_localization()
+                    else:
+                        self._recover(predicted, t.unmatched_travel, usual)
                 return
             if t.confirmed and not self._track_confirmed:
                 self._surround(t.pose)
+                self._lost = None
+            elif self._lost is not None:  # a new track, not confirmed yet: if it is dropped, look there
+                self._lost, self._lost_travel = t.pose.copy(), t.unmatched_travel
             self._track_confirmed = t.confirmed
         if not filter_updated:
             return
@@ -304,13 +362,37 @@ class MonteCarloLocalizer:
             if converged and not t.occluded and self._disagrees(self.main_cluster().pose, t.pose):
                 t.try_switch(self.main_cluster().pose, points)
             self._badly_converged = 0
-        elif ((converged and t.try_start(self.main_cluster().pose, points))
+        elif ((self._lost is not None and (t.try_resume(self._lost, points, self._lost_fit) or (
+                converged and t.try_resume(self.main_cluster().pose, points, self._lost_fit))))
+              or (converged and t.try_start(self.main_cluster().pose, points))
               or self._start_from_hypotheses(points)):
             self._badly_converged = 0
         elif converged:
             self._badly_converged += 1
             if self._badly_converged >= cfg.relocalize_after:
-                self.global_localization()
+                if self._lost is not None:
+                    self._reset(self._around_lost(cfg.max_particles))
+                else:
+                    self.global_localization()
+
+    def _fits_elsewhere(self, scan: Scan, points: np.ndarray, pose: np.ndarray, travel: float) -> bool:
+        """Whether the scan fits the map well (``start_fit``) at one of the best poses of a global
+        search (refined by the matcher) that a restart around ``pose`` after ``travel`` m would not
+        consider (more than three of its standard deviations off): the robot was carried off,
+        rather than the map explaining too little of what it sees."""
+        cfg = self.config
+        xy, theta = self._recover_spread(travel)
+        if self._global_search is None:
+            self._global_search = GlobalSearch(self.map)
+        wide = tracking_points(scan, cfg.laser_pose, cfg.global_beams, cfg.global_range)
+        candidates, _ = self._global_search.best(wide, cfg.global_candidates)
+        for candidate in candidates:
+            match = self.tracker.matcher.match(candidate, points)
+            off = relative(pose, match.pose)
+            if match.fit >= cfg.tracking.start_fit and (np.hypot(off[0], off[1]) > 3.0 * xy
+                                                        or abs(off[2]) > 3.0 * theta):
+                return True
+        return False
 
     def _start_from_hypotheses(self, points: np.ndarray) -> bool:
         """Refine the heaviest distinct particles by matching; start the track at the best if it fits
@@ -408,7 +490,9 @@ class MonteCarloLocalizer:
         drawn = self.particles[idx]
         fresh = self.rng.random(len(drawn)) < injection
         if fresh.any():
-            drawn[fresh] = self.map.sample_free_poses(int(fresh.sum()), self.rng)
+            k = int(fresh.sum())  # anywhere, or around a lost track's odometry pose
+            drawn[fresh] = (self._around_lost(k) if self._lost is not None
+                            else self.map.sample_free_poses(k, self.rng))
         keys = pose_bins(drawn, cfg.kld_xy_bin, cfg.kld_theta_bin)
         n = adaptive_count(keys, cfg.kld_epsilon, cfg.kld_delta, cfg.min_particles, cfg.max_particles)
         self.particles = np.ascontiguousarray(drawn[:n])

@@ -35,7 +35,9 @@ filter is *confirmed* only after ``confirm_travel`` metres of odometry and
 ``confirm_matches`` accepted matches during
 which its usual fit stayed at least ``start_fit`` (it is dropped as soon as it
 does not): in a look-alike corridor the filter can converge on the wrong one
-while the robot barely moves.
+while the robot barely moves. A track *resumed* where odometry puts a lost one
+(:meth:`PoseTracker.try_resume`) needs, instead of ``start_fit``, the fit the lost track
+usually had (where the map explains a scan at 0.6 at best, a track there never fits at 0.8).
 """
 
 from __future__ import annotations
@@ -141,11 +143,17 @@ class PoseTracker:
         self._moved = np.zeros(2)  # odometry distance and turn since the last accepted match
         self._unconfirmed_travel = 0.0  # odometry travel since an unconfirmed start
         self._unconfirmed_matches = 0  # and accepted matches
+        self._confirm_fit = self.config.start_fit  # the usual fit an unconfirmed track must keep
         self.confirmed = False
 
     @property
     def tracking(self) -> bool:
         return self.pose is not None
+
+    @property
+    def unmatched_travel(self) -> float:
+        """Odometry travel (m) since the last accepted match (or the start)."""
+        return float(self._moved[0])
 
     def predict(self, odom: np.ndarray) -> None:
         """Move the tracked pose by the odometry since the previous call."""
@@ -205,7 +213,7 @@ class PoseTracker:
             self.occluded = True
         else:
             self.misses += 1
-        if self.misses >= cfg.patience or (not self.confirmed and self.usual_fit < cfg.start_fit):
+        if self.misses >= cfg.patience or (not self.confirmed and self.usual_fit < self._confirm_fit):
             self.lose()
         return result
 
@@ -227,6 +235,13 @@ class PoseTracker:
         (``start_fit``)."""
         return self._start_if(pose, points, self.config.start_fit, confirmed=False)
 
+    def try_resume(self, pose, points: np.ndarray, fit: float) -> bool:
+        """Start the track at ``pose`` (where odometry puts a lost track) refined by a match, if the map
+        explains the scan there as well as ``fit`` (the lost track's usual fit, at most ``start_fit``,
+        at least ``min_fit``); it confirms itself keeping that fit."""
+        fit = min(max(fit, self.config.min_fit), self.config.start_fit)
+        return self._start_if(pose, points, fit, confirmed=False, confirm_fit=fit)
+
     def try_switch(self, pose, points: np.ndarray) -> bool:
         """Move the track to ``pose`` refined by a match, if the scan fits there well or as well as
         here, and as well as the track needs (a scan the map explains badly everywhere moves
@@ -237,10 +252,12 @@ class PoseTracker:
         near = float(np.hypot(*(np.asarray(pose[:2]) - self.pose[:2]))) <= cfg.switch_xy
         return self._start_if(pose, points, needed, self.confirmed and near)
 
-    def _start_if(self, pose, points: np.ndarray, min_fit: float, confirmed: bool) -> bool:
+    def _start_if(self, pose, points: np.ndarray, min_fit: float, confirmed: bool,
+                  confirm_fit: float | None = None) -> bool:
         result = self.matcher.match(pose, points)
         if result.fit < min_fit:
             return False
+        self._confirm_fit = self.config.start_fit if confirm_fit is None else confirm_fit
         usual = self.usual_fit if confirmed and self.confirmed and self.usual_fit is not None else result.fit
         self.pose, self.fit, self.usual_fit, self.misses = result.pose, result.fit, usual, 0
         self.occluded = False
