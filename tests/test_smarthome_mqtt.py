@@ -120,7 +120,9 @@ def test_go_to_point_drives_the_simulated_robot(server, observer):
                                                                "id": 7}))
     assert answer["ok"] is True and answer["id"] == 7 and answer["command"] == "go_to", answer
     observer.wait(lambda: _state(observer).get("state") == "driving", 10, "state driving")
-    assert json.loads(observer.latest[f"{PREFIX}/vacuum/state"])["state"] == "cleaning"
+    # the vacuum state is a message of its own, sent just after the state
+    observer.wait(lambda: (observer.json(f"{PREFIX}/vacuum/state") or {}).get("state") == "cleaning", 5,
+                  "vacuum state cleaning")
     observer.wait(lambda: _state(observer).get("nav_state") == "arrived", 60, "arrival")
     true = server.status()["true_pose"]
     assert math.hypot(true[0] - goal[0], true[1] - goal[1]) < 0.5
@@ -131,6 +133,7 @@ def test_go_to_point_drives_the_simulated_robot(server, observer):
 def test_the_map_image_is_throttled_and_sent_only_when_it_changed(server, observer):
     """HOMEBOT_MQTT_MAP_INTERVAL_S=2: the map grows while the robot drives, yet the images come at
     least 2 s apart, and none repeats the one before it."""
+    observer.wait(lambda: _state(observer).get("nav_state") != "driving", 60, "the robot at rest")
     start = server.status()["true_pose"]
     answer = observer.command(f"{PREFIX}/command", json.dumps({"command": "go_to", "x": start[0] - 1.0,
                                                                "y": start[1]}))
