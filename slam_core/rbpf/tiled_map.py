@@ -303,7 +303,8 @@ class TiledMaps:
     The pools (tiles, hit blocks) are allocated zeroed for ``capacity`` entries and handed
     out from their low ends, so the memory a process really holds is that of the entries
     taken so far (the operating system maps zeroed pages only when they are first written);
-    when full a pool grows by an eighth (or what is needed), in place. The matching kernels read ``lo`` and
+    when full a pool grows by an eighth (or what is needed), in place, the tile pool only after
+    its settled tiles were shared (:func:`_share_settled`). The matching kernels read ``lo`` and
     ``hits`` (each tile's hit block index, and the blocks).
     """
 
@@ -426,8 +427,8 @@ class TiledMaps:
     def _reserve(self, needed: int, blocks: int | None = None) -> None:
         """Room for ``needed`` more tiles and ``blocks`` (as many if not given) more hit blocks.
         Before the tile pool grows, its settled tiles are shared (:func:`_share_settled`); it
-        grows only if that left fewer than ``needed`` or a sixteenth of it free (so that the
-        sweeps stay rare)."""
+        grows only if that left fewer than ``needed`` or a sixteenth of it free (so that a sweep
+        that freed little is not followed by another at once)."""
         if self.free_top[0] < needed:
             _share_settled(self.tables, self.refs, self.lo, self.hit_of, self.free_stack, self.free_top,
                            np.float32(self.model.l_min))
