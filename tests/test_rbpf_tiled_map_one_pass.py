@@ -62,6 +62,11 @@ def tiles_by_place(maps: TiledMaps) -> list[dict]:
              for ty, tx in np.argwhere(maps.tables[p] >= 0)} for p in range(maps.n_maps)]
 
 
+def is_settled(maps: TiledMaps, t: int) -> bool:
+    """Whether tile ``t`` is settled free space: every cell at ``l_min``, no hit block."""
+    return maps.hit_of[t] < 0 and bool(np.all(maps.lo[t] == np.float32(maps.model.l_min)))
+
+
 def assert_pools_consistent(maps: TiledMaps) -> None:
     """Reference counts are the tables' references; the free stacks hold exactly the rest."""
     held = maps.tables[maps.tables >= 0]
@@ -118,7 +123,8 @@ def test_one_pass_integrate_equals_the_per_map_reference(seed, n_maps, capacity,
             reference_integrate(maps, reference[p], poses[p], scan)
             assert resolved(maps, p) == {c: v for c, v in reference[p].items() if any(x != 0 for x in v)}
         assert_pools_consistent(maps)
-        # A map took a new tile only where a write changed what it held there.
+        # A map took a new tile only where a write changed what it held there, or the shared
+        # settled tile (the pool was swept before growing).
         after = tiles_by_place(maps)
         for p in range(n_maps):
             now = resolved(maps, p)
@@ -126,9 +132,50 @@ def test_one_pass_integrate_equals_the_per_map_reference(seed, n_maps, capacity,
                 if before[p].get(place) != t:
                     keys = [(place[0] * TILE + cx, place[1] * TILE + cy)
                             for cy in range(TILE) for cx in range(TILE)]
-                    assert any(now.get(k) != contents[p].get(k) for k in keys)
+                    assert any(now.get(k) != contents[p].get(k) for k in keys) or is_settled(maps, t)
         parents = rng.integers(0, n_maps, n_maps)
         maps.resample(parents)
         reference = [dict((c, list(v)) for c, v in reference[q].items()) for q in parents]
         assert_pools_consistent(maps)
     assert capacity > 64 or len(maps.refs) > capacity  # the small pools grew on the way
+
+
+def swept_and_plain(seed: int, n_maps: int) -> tuple[TiledMaps, TiledMaps]:
+    """The same random integrate / resample sequence into maps from a small pool (swept for
+    settled tiles whenever it would grow) and from one that never grows (never swept). Each
+    dense scan, its echoes 3 m out or more, is integrated a few times from nearby poses, so
+    that the free space within settles at ``l_min``. Asserts that every map is the same in
+    both after each round."""
+    rng = np.random.default_rng(seed)
+    swept, plain = TiledMaps(n_maps, 0.05, capacity=4), TiledMaps(n_maps, 0.05, capacity=1 << 15)
+    for _ in range(4):
+        centre = rng.normal(0.0, 1.0, 3)
+        scan = random_scan(rng, 240)
+        scan.ranges[(scan.ranges > 0.0) & (scan.ranges < 3.0)] += 3.0
+        for _ in range(int(rng.integers(1, 8))):
+            poses = centre + rng.normal(0.0, [0.02, 0.02, 0.01], (n_maps, 3))
+            swept.integrate(poses, scan)
+            plain.integrate(poses, scan)
+        for p in range(n_maps):
+            assert resolved(swept, p) == resolved(plain, p)
+        assert_pools_consistent(swept)
+        parents = rng.integers(0, n_maps, n_maps)
+        swept.resample(parents)
+        plain.resample(parents)
+    assert len(plain.refs) == 1 << 15
+    return swept, plain
+
+
+@settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.too_slow],
+          phases=[Phase.explicit, Phase.reuse, Phase.generate])
+@given(seed=st.integers(0, 2**32 - 1), n_maps=st.integers(1, 6))
+def test_sharing_settled_tiles_changes_no_map(seed, n_maps):
+    swept, plain = swept_and_plain(seed, n_maps)
+    assert swept.tiles_in_use <= plain.tiles_in_use
+
+
+def test_settled_tiles_are_shared_before_the_pool_grows():
+    swept, plain = swept_and_plain(0, 8)
+    settled = [sum(is_settled(m, t) for t in np.unique(m.tables[m.tables >= 0])) for m in (swept, plain)]
+    assert settled[0] < settled[1]
+    assert swept.tiles_in_use < plain.tiles_in_use

@@ -13,6 +13,11 @@ sub-cell accuracy (as GMapping's point accumulators do). A tile's log-odds take
 1 KB; the sums take 3 KB more, so only a tile that some echo fell into has them,
 in a *hit block* of its own (copied with the tile): most tiles a scan crosses are
 free space and have none.
+
+Outdoors a third of the tiles in use end up as private copies of settled free space: every
+cell at the lower clamp ``l_min``, no echo. Before a pool grows, all such tiles are made one
+shared tile (:func:`_share_settled`); the maps read the same values from it, and a free-space
+write leaves it shared as it leaves any cell at ``l_min``.
 """
 
 from __future__ import annotations
@@ -207,6 +212,40 @@ def _settle(refs, hit_of, source, stack, free_top, base, bottom, ceiling, top, h
 
 
 @njit
+def _is_settled(lo, t, l_min):
+    """Whether every cell of tile ``t`` is at ``l_min``."""
+    for cy in range(TILE):
+        for cx in range(TILE):
+            if lo[t, cy, cx] != l_min:
+                return False
+    return True
+
+
+@njit
+def _share_settled(tables, refs, lo, hit_of, free_stack, free_top, l_min):
+    """Point every map's settled tiles (every cell at ``l_min``, no hit block) at one of them,
+    freeing the others."""
+    settled = np.zeros(refs.shape[0], np.bool_)
+    keep = -1
+    for t in range(refs.shape[0]):
+        if refs[t] > 0 and hit_of[t] < 0 and _is_settled(lo, t, l_min):
+            settled[t] = True
+            if keep < 0:
+                keep = t
+    for p in range(tables.shape[0]):
+        for ty in range(tables.shape[1]):
+            for tx in range(tables.shape[2]):
+                t = tables[p, ty, tx]
+                if t >= 0 and t != keep and settled[t]:
+                    tables[p, ty, tx] = keep
+                    refs[keep] += 1
+                    refs[t] -= 1
+                    if refs[t] == 0:
+                        free_stack[free_top[0]] = t
+                        free_top[0] += 1
+
+
+@njit
 def _retable(tables, refs, free_stack, free_top, hit_of, hit_free_stack, hit_free_top, parents):
     """Replace the maps by copies of ``parents``, keeping reference counts and the free stacks."""
     old = tables.copy()
@@ -264,7 +303,8 @@ class TiledMaps:
     The pools (tiles, hit blocks) are allocated zeroed for ``capacity`` entries and handed
     out from their low ends, so the memory a process really holds is that of the entries
     taken so far (the operating system maps zeroed pages only when they are first written);
-    when full a pool grows by an eighth (or what is needed), in place. The matching kernels read ``lo`` and
+    when full a pool grows by an eighth (or what is needed), in place, the tile pool only after
+    its settled tiles were shared (:func:`_share_settled`). The matching kernels read ``lo`` and
     ``hits`` (each tile's hit block index, and the blocks).
     """
 
@@ -385,16 +425,22 @@ class TiledMaps:
                  self.hit_free_top, np.ascontiguousarray(parents, dtype=np.int64))
 
     def _reserve(self, needed: int, blocks: int | None = None) -> None:
-        """Room for ``needed`` more tiles and ``blocks`` (as many if not given) more hit blocks."""
-        free = int(self.free_top[0])
-        if free < needed:
-            old = len(self.refs)
-            new = max(old + needed - free, old + old // GROW_DIVISOR)
-            for name in ("lo", "refs", "hit_of"):
-                self._grow(name, new)
-            self.hit_of[old:] = -1
-            self.free_stack = _grown_stack(self.free_stack, free, old, new)
-            self.free_top[0] = free + new - old
+        """Room for ``needed`` more tiles and ``blocks`` (as many if not given) more hit blocks.
+        Before the tile pool grows, its settled tiles are shared (:func:`_share_settled`); it
+        grows only if that left fewer than ``needed`` or a sixteenth of it free (so that a sweep
+        that freed little is not followed by another at once)."""
+        if self.free_top[0] < needed:
+            _share_settled(self.tables, self.refs, self.lo, self.hit_of, self.free_stack, self.free_top,
+                           np.float32(self.model.l_min))
+            free = int(self.free_top[0])
+            if free < max(needed, len(self.refs) // (2 * GROW_DIVISOR)):
+                old = len(self.refs)
+                new = max(old + needed - free, old + old // GROW_DIVISOR)
+                for name in ("lo", "refs", "hit_of"):
+                    self._grow(name, new)
+                self.hit_of[old:] = -1
+                self.free_stack = _grown_stack(self.free_stack, free, old, new)
+                self.free_top[0] = free + new - old
         free = int(self.hit_free_top[0])
         needed = needed if blocks is None else blocks
         if free < needed:
