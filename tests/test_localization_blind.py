@@ -6,11 +6,11 @@ the scans fit again, instead of a global restart in a corridor that looks alike 
 
 import numpy as np
 import pytest
-from corridor import STEP, corridor_map, scan_at
 
 from slam_core.geometry import compose
 from slam_core.localization import MclConfig, MonteCarloLocalizer
 from slam_core.scan import Scan
+from tests.corridor import STEP, corridor_map, scan_at
 
 CONFIG = MclConfig(min_particles=300, max_particles=5000)
 SCANS = 170  # 34 m down the corridor

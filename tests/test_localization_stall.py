@@ -2,10 +2,10 @@
 not stop the published pose in a corridor, nor make it jump when it catches up."""
 
 import numpy as np
-from corridor import STEP, corridor_map, scan_at
 
 from slam_core.geometry import compose
 from slam_core.localization import MonteCarloLocalizer
+from tests.corridor import STEP, corridor_map, scan_at
 
 
 def drive(stalls: set[int], scans: int = 100, seed: int = 0):
