@@ -37,7 +37,8 @@ def mapped(world, lidar: Lidar, rng) -> tuple[Relocalizer, np.ndarray]:
 
 
 def runner_up_margin(relocalizer: Relocalizer, scan) -> float:
-    """The global search's best fit minus its runner-up's, as ``locate`` weighs them (1 without one)."""
+    """The global search's best fit minus its runner-up's, as ``locate`` weighs them (the best fit itself
+    when the runner-up refined back onto the best pose)."""
     best, runner_up = relocalizer.global_search(scan)
     return best.fit - (0.0 if runner_up is None else runner_up.fit)
 
