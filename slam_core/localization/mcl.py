@@ -308,10 +308,7 @@ class MonteCarloLocalizer:
         map best (within a lattice stride and half a heading step)."""
         cfg = self.config
         self._seed_pending = False
-        if self._global_search is None:
-            self._global_search = GlobalSearch(self.map)
-        points = tracking_points(scan, cfg.laser_pose, cfg.global_beams, cfg.global_range)
-        poses, _ = self._global_search.best(points, cfg.global_candidates)
+        poses = self._global_best(scan)
         n = int(cfg.global_seeded * len(self.particles))
         if len(poses) == 0 or n == 0:
             return
@@ -321,6 +318,15 @@ class MonteCarloLocalizer:
         seeded = pick + self.rng.uniform(-1.0, 1.0, (n, 3)) * spread
         seeded[:, 2] = wrap_angle(seeded[:, 2])
         self.particles[:n] = seeded
+
+    def _global_best(self, scan: Scan) -> np.ndarray:
+        """The ``global_candidates`` poses where ``scan`` fits the whole map best (the
+        :class:`GlobalSearch` is built at its first use)."""
+        cfg = self.config
+        if self._global_search is None:
+            self._global_search = GlobalSearch(self.map)
+        points = tracking_points(scan, cfg.laser_pose, cfg.global_beams, cfg.global_range)
+        return self._global_search.best(points, cfg.global_candidates)[0]
 
     def _track(self, scan: Scan, filter_updated: bool) -> None:
         """Match the tracked pose, and settle it with the filter after each filter update.
@@ -382,11 +388,7 @@ class MonteCarloLocalizer:
         rather than the map explaining too little of what it sees."""
         cfg = self.config
         xy, theta = self._recover_spread(travel)
-        if self._global_search is None:
-            self._global_search = GlobalSearch(self.map)
-        wide = tracking_points(scan, cfg.laser_pose, cfg.global_beams, cfg.global_range)
-        candidates, _ = self._global_search.best(wide, cfg.global_candidates)
-        for candidate in candidates:
+        for candidate in self._global_best(scan):
             match = self.tracker.matcher.match(candidate, points)
             off = relative(pose, match.pose)
             if match.fit >= cfg.tracking.start_fit and (np.hypot(off[0], off[1]) > 3.0 * xy
