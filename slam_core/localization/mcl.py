@@ -9,13 +9,15 @@ of the measurement likelihood; each resampled particle is replaced by a random
 pose in free space with probability ``max(0, 1 - w_fast / w_slow)``.
 
 The published pose is the tracked one (:mod:`slam_core.localization.tracking`:
-odometry, then scan-to-map matching on every scan) while there is a track, else
-the weighted mean of the heaviest particle cluster. Along a confirmed track it moves
-smoothly: per scan its position moves at most ``smooth_xy`` farther than the odometry
-moved (a correction is spread over the next scans)
-(a jump only when a new track starts, which is not yet *localized*). The filter runs on its own
-and checks the track: a track starts from a known pose or from the converged
-main cluster, and moves there when the converged cloud disagrees with it and
+odometry, then scan-to-map matching on every scan) while there is a track; while the filter
+searches around a lost track (below), the heaviest cluster's mean if it lies within the search's
+reach of that track's pose moved on by the odometry, else that pose; else the weighted mean of
+the heaviest particle cluster. Along a confirmed track, and from a lost
+track to the one that resumes it, it moves smoothly: per scan its position moves at most
+``smooth_xy`` farther than the odometry moved (a correction is spread over the next scans)
+(a jump only when a track starts after a global start, which is not yet *localized*). The
+filter runs on its own and checks the track: a track starts from a known pose or from the
+converged main cluster, and moves there when the converged cloud disagrees with it and
 the scan fits there at least as well.
 While the track holds no random particles are injected, and once it is
 confirmed the robot is *localized*.
@@ -177,7 +179,7 @@ class MonteCarloLocalizer:
             self.sensor = LikelihoodFieldModel(self.map, self.config.likelihood_field)
         self._last_odom: np.ndarray | None = None
         self._estimate: Estimate | None = None
-        self._published: np.ndarray | None = None  # the position published along a confirmed track
+        self._published: np.ndarray | None = None  # the position published, smoothed (see _publish)
         self._published_odom = np.zeros(3)  # and the odometry then
         self._track_confirmed = False  # whether the track was confirmed after the previous scan
         self._global_search: GlobalSearch | None = None  # built at the first global start
@@ -202,6 +204,7 @@ class MonteCarloLocalizer:
         self.tracker.lose()
         self._seed_pending = True
         self._lost = None
+        self._published = None
 
     def _recover(self, pose: np.ndarray, travel: float, fit: float) -> None:
         """Restart the filter around the lost track's ``pose``, ``travel`` m of odometry after its
@@ -240,6 +243,7 @@ class MonteCarloLocalizer:
         self.tracker.start(pose)
         self._seed_pending = False
         self._lost = None
+        self._published = None
 
     def _reset(self, particles: np.ndarray) -> None:
         self.particles = np.ascontiguousarray(particles, dtype=np.float64)
@@ -277,17 +281,30 @@ class MonteCarloLocalizer:
         return self.filter_updated or self.tracker.tracking
 
     def _publish(self, odom: np.ndarray) -> None:
-        """Move the published position towards the confirmed track, at most ``smooth_xy`` farther
-        than the odometry moved since the previous scan; a new track is published as it is."""
+        """Move the published position towards the confirmed track, or while the filter searches
+        around a lost track towards a new track or the lost one's pose moved on by the odometry,
+        at most ``smooth_xy`` farther than the odometry moved since the previous scan; any other
+        track (after a global start) is published as it is."""
         t = self.tracker
-        if not (t.tracking and t.confirmed and self._published is not None):
-            self._published = t.pose[:2].copy() if t.tracking and t.confirmed else None
+        smooth = self._lost is not None or (t.tracking and t.confirmed)
+        target = t.pose if t.tracking else self._searching_pose(self.main_cluster()) if smooth else None
+        if not smooth or self._published is None:
+            self._published = target[:2].copy() if smooth else None
         else:
-            step = t.pose[:2] - self._published
+            step = target[:2] - self._published
             dist = float(np.hypot(step[0], step[1]))
             limit = float(np.hypot(*(odom[:2] - self._published_odom[:2]))) + self.config.smooth_xy
             self._published = self._published + step * min(1.0, limit / dist if dist > 0 else 1.0)
         self._published_odom = odom
+
+    def _searching_pose(self, cluster: Cluster) -> np.ndarray:
+        """Where the robot is while the filter searches around a lost track: the main cluster if it
+        lies within three of the search's standard deviations of the lost track's pose moved on by
+        the odometry (the cloud weighs what the scans still say), else that pose."""
+        xy, theta = self._recover_spread(self._lost_travel)
+        off = relative(self._lost, cluster.pose)
+        near = np.hypot(off[0], off[1]) <= 3.0 * xy and abs(off[2]) <= 3.0 * theta
+        return cluster.pose if near else self._lost
 
     def _filter_step(self, odom: np.ndarray, scan: Scan) -> bool:
         cfg = self.config
@@ -333,7 +350,9 @@ class MonteCarloLocalizer:
 
         A converged cloud that the track disagrees with wins when the scan fits the map
         there at least as well as at the track (the filter weighs many scans, the track
-        one), or well (``start_fit``). Without a track, a converged cloud starts one
+        one), or well (``start_fit``); against a track resumed after a loss (the cloud
+        weighed scans the map did not explain), only when it fits ``hypothesis_margin``
+        better. Without a track, a converged cloud starts one
         where the scan fits well; else the filter's best distinct hypotheses are refined
         by the matcher and one that fits well, clearly better than any other, starts it.
         A cloud that stays converged where it fits badly for ``relocalize_after`` updates
@@ -354,6 +373,8 @@ class MonteCarloLocalizer:
                         self.global_localization()
                     else:
                         self._recover(predicted, t.unmatched_travel, usual)
+                elif not found and self._lost is not None:  # a new track dropped: look on from it
+                    self._lost, self._lost_travel = predicted, t.unmatched_travel
                 return
             if t.confirmed and not self._track_confirmed:
                 self._surround(t.pose)
@@ -366,7 +387,10 @@ class MonteCarloLocalizer:
         converged = self._converged()
         if t.tracking:
             if converged and not t.occluded and self._disagrees(self.main_cluster().pose, t.pose):
-                t.try_switch(self.main_cluster().pose, points)
+                # a track resumed after a loss outweighs a cloud that weighed scans the map did not
+                # explain: the cloud must fit clearly better
+                margin = cfg.hypothesis_margin if self._lost is not None else 0.0
+                t.try_switch(self.main_cluster().pose, points, margin)
             self._badly_converged = 0
         elif ((self._lost is not None and (t.try_resume(self._lost, points, self._lost_fit) or (
                 converged and t.try_resume(self.main_cluster().pose, points, self._lost_fit))))
@@ -507,17 +531,27 @@ class MonteCarloLocalizer:
         return main_cluster(self.particles, self.weights, cfg.cluster_xy, cfg.cluster_theta_bins)
 
     def estimate(self) -> Estimate:
-        """The published pose while there is a track (see the module doc), else the main cluster's
-        mean; ``localized`` while the track is confirmed, the last scan fitted (not missed, not
-        occluded) and the published pose is within ``disagree_xy`` of the track."""
+        """The published pose while there is a track (see the module doc); without one, while the
+        filter searches around a lost track, :meth:`_searching_pose` (with the search's spread),
+        else the main cluster's mean. ``localized`` while the track is confirmed,
+        the last scan fitted (not missed, not occluded) and the published pose is within
+        ``disagree_xy`` of the track."""
         if self._estimate is None:
             c = self.main_cluster()
             t = self.tracker
-            pose = t.pose.copy() if t.tracking else c.pose
-            if t.tracking and self._published is not None:
+            covariance = c.covariance
+            if t.tracking:
+                pose = t.pose.copy()
+            elif self._lost is not None:
+                pose = self._searching_pose(c).copy()
+                xy, theta = self._recover_spread(self._lost_travel)
+                covariance = np.diag([xy * xy, xy * xy, theta * theta])
+            else:
+                pose = c.pose
+            if self._published is not None:
                 pose[:2] = self._published
             caught_up = not t.tracking or np.hypot(*(pose[:2] - t.pose[:2])) <= self.config.disagree_xy
-            self._estimate = Estimate(pose=pose, covariance=c.covariance, particles=self.particles,
+            self._estimate = Estimate(pose=pose, covariance=covariance, particles=self.particles,
                                       weights=self.weights, localized=t.tracking and t.confirmed
                                       and t.misses == 0 and not t.occluded and bool(caught_up))
         return self._estimate

@@ -242,13 +242,14 @@ class PoseTracker:
         fit = min(max(fit, self.config.min_fit), self.config.start_fit)
         return self._start_if(pose, points, fit, confirmed=False, confirm_fit=fit)
 
-    def try_switch(self, pose, points: np.ndarray) -> bool:
+    def try_switch(self, pose, points: np.ndarray, margin: float = 0.0) -> bool:
         """Move the track to ``pose`` refined by a match, if the scan fits there well or as well as
-        here, and as well as the track needs (a scan the map explains badly everywhere moves
-        nothing). A correction within ``switch_xy`` keeps the track confirmed if it was; a longer
-        one is a new start that must confirm itself."""
+        here (with a ``margin``: that much better than here), and as well as the track needs (a
+        scan the map explains badly everywhere moves nothing). A correction within ``switch_xy``
+        keeps the track confirmed if it was; a longer one is a new start that must confirm itself."""
         cfg = self.config
-        needed = max(min(cfg.start_fit, self.fit), cfg.min_fit, cfg.keep_ratio * (self.usual_fit or 0.0))
+        floor = max(cfg.min_fit, cfg.keep_ratio * (self.usual_fit or 0.0))
+        needed = max(self.fit + margin, floor) if margin > 0.0 else max(min(cfg.start_fit, self.fit), floor)
         near = float(np.hypot(*(np.asarray(pose[:2]) - self.pose[:2]))) <= cfg.switch_xy
         return self._start_if(pose, points, needed, self.confirmed and near)
 
