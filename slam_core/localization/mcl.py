@@ -282,14 +282,18 @@ class MonteCarloLocalizer:
 
     def _publish(self, odom: np.ndarray) -> None:
         """Move the published position towards the confirmed track, or while the filter searches
-        around a lost track towards a new track or the lost one's pose moved on by the odometry,
-        at most ``smooth_xy`` farther than the odometry moved since the previous scan; any other
-        track (after a global start) is published as it is."""
+        around a lost track towards a new track or else :meth:`_searching_pose`, at most
+        ``smooth_xy`` farther than the odometry moved since the previous scan; any other track
+        (after a global start) is published as it is."""
         t = self.tracker
         smooth = self._lost is not None or (t.tracking and t.confirmed)
-        target = t.pose if t.tracking else self._searching_pose(self.main_cluster()) if smooth else None
-        if not smooth or self._published is None:
-            self._published = target[:2].copy() if smooth else None
+        if not smooth:
+            self._published = None
+            self._published_odom = odom
+            return
+        target = t.pose if t.tracking else self._searching_pose(self.main_cluster())
+        if self._published is None:
+            self._published = target[:2].copy()
         else:
             step = target[:2] - self._published
             dist = float(np.hypot(step[0], step[1]))
@@ -547,7 +551,7 @@ class MonteCarloLocalizer:
                 xy, theta = self._recover_spread(self._lost_travel)
                 covariance = np.diag([xy * xy, xy * xy, theta * theta])
             else:
-                pose = c.pose
+                pose = c.pose.copy()
             if self._published is not None:
                 pose[:2] = self._published
             caught_up = not t.tracking or np.hypot(*(pose[:2] - t.pose[:2])) <= self.config.disagree_xy
