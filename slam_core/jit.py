@@ -5,11 +5,11 @@ fast-math choices stay consistent. ``cache=True`` writes the compiled machine
 code next to the module, which keeps the second start of a command cheap.
 
 The parallel kernels run on numba's OpenMP pool. OpenMP's default lets a worker that
-finished its share spin for a while before sleeping; the filter launches ~10 short
+finished its share spin for a while before sleeping; the filter launches several short
 parallel kernels per update with Python work between them, so on a 2-core machine the
 spinning worker took a core from the main thread and from other processes (see
-``benchmarks/RESULTS.md``, "Where intel's time goes"). Unless
-the environment says otherwise, workers sleep at once (``OMP_WAIT_POLICY=PASSIVE``, read
+``benchmarks/RESULTS.md``, "where intel's time goes"). Unless the environment says
+otherwise, workers sleep at once (``OMP_WAIT_POLICY=PASSIVE``, read
 when numba first loads its OpenMP pool, after this module is imported).
 """
 
