@@ -99,3 +99,32 @@ def test_jacobians_match_finite_differences(values):
             numeric = (_errors(x + d, i, j, z)[0] - _errors(x - d, i, j, z)[0]) / (2 * h)
             numeric[:, 2] = wrap_angle(numeric[:, 2] * 2 * h) / (2 * h)
             assert np.allclose(numeric, jac[:, :, k], atol=1e-5)
+
+
+@settings(max_examples=20, deadline=None)
+@given(st.integers(0, 10_000))
+def test_a_step_solves_the_dense_normal_equations(seed):
+    # oracle for the sparse solve (and its fill-reducing ordering): one Gauss-Newton step
+    # equals the dense solution of H dx = -g over the free nodes
+    rng = np.random.default_rng(seed)
+    truth = random_path(rng, 30)
+    start = truth + np.vstack([np.zeros(3), rng.normal(0, [0.1, 0.1, 0.05], (29, 3))])
+    graph = PoseGraph(start)
+    chain_edges(graph, truth, np.diag([50.0, 80.0, 200.0]))
+    for _ in range(8):
+        a, b = sorted(rng.choice(30, 2, replace=False))
+        z = relative(truth[a], truth[b]) + rng.normal(0, 0.02, 3)
+        graph.add_edge(a, b, z, np.diag([30.0, 30.0, 90.0]))
+    i, j, z, info, _ = graph._arrays()
+    e, ja, jb = _errors(start, i, j, z)
+    h = np.zeros((90, 90))
+    g = np.zeros(90)
+    for k in range(len(i)):
+        for (r, jr) in ((i[k], ja[k]), (j[k], jb[k])):
+            g[3 * r:3 * r + 3] += jr.T @ info[k] @ e[k]
+            for (c, jc) in ((i[k], ja[k]), (j[k], jb[k])):
+                h[3 * r:3 * r + 3, 3 * c:3 * c + 3] += jr.T @ info[k] @ jc
+    expected = start.copy()
+    expected[1:] += np.linalg.solve(h[3:, 3:], -g[3:]).reshape(-1, 3)
+    expected[:, 2] = wrap_angle(expected[:, 2])
+    assert pose_error(optimize(graph, iterations=1), expected) < 1e-9

@@ -36,6 +36,7 @@ import threading
 from collections import OrderedDict
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -129,13 +130,23 @@ class Submap:
             self.maps.integrate(poses[u][None, :], scans[u])
         m = self.maps
         half = int(np.ceil(reach / resolution))  # where the endpoints of a query can land
-        centre = np.floor((self.anchor_pose[:2] - m.origin) / resolution).astype(int)
-        self.field = likelihood_window(m.tables[0], m.lo, m.origin[0], m.origin[1], resolution, centre[0],
-                                       centre[1], half, params[P_OCCUPIED], matcher.coarse_sigma,
-                                       matcher.coarse_reach_cells)
-        self.field_corner = m.origin + (centre - half) * resolution
-        self.pooled = max_pool(self.field, BLOCK_CELLS)
+        self._centre = np.floor((self.anchor_pose[:2] - m.origin) / resolution).astype(int)
+        self._half = half
+        self._field_args = (params[P_OCCUPIED], matcher.coarse_sigma, matcher.coarse_reach_cells)
+        self.field_corner = m.origin + (self._centre - half) * resolution
         self._pyramid: np.ndarray | None = None
+
+    @cached_property
+    def field(self) -> np.ndarray:
+        """The likelihood field (built when first asked for: the final re-match needs none)."""
+        m = self.maps
+        return likelihood_window(m.tables[0], m.lo, m.origin[0], m.origin[1], m.resolution, self._centre[0],
+                                 self._centre[1], self._half, *self._field_args)
+
+    @cached_property
+    def pooled(self) -> np.ndarray:
+        """The field max-pooled over blocks of ``BLOCK_CELLS``."""
+        return max_pool(self.field, BLOCK_CELLS)
 
     def pyramid(self) -> np.ndarray:
         """The field max-pooled at every level of the wide search (built when first asked for)."""
@@ -248,12 +259,19 @@ def close_loops(poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig 
         estimate = memory.warm_start(poses)
     narrow = (config.linear_window, config.angular_window)
 
+    rows: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # update: (beams, points), each made once
+
+    def query_rows(q: int) -> tuple[np.ndarray, np.ndarray]:
+        if q not in rows:
+            rows[q] = (beam_rows(scans[q], reach, matcher.max_beams),
+                       beam_rows(scans[q], min(matcher.coarse_range, reach), matcher.coarse_beams)[:, :2])
+        return rows[q]
+
     def try_submap(s: int, queries: list[tuple[int, float, float]], estimate: np.ndarray):
         sub = submaps[s]
         found = []
         for q, linear, angular in queries:
-            beams = beam_rows(scans[q], reach, matcher.max_beams)
-            points = beam_rows(scans[q], min(matcher.coarse_range, reach), matcher.coarse_beams)[:, :2]
+            beams, points = query_rows(q)
             if len(points) == 0:
                 continue
             hit = _match(sub, sub.in_frame(estimate[sub.anchor], estimate[q]), beams, points,

@@ -123,7 +123,7 @@ def optimize(graph: PoseGraph, iterations: int = 20, huber: float = 1.0,
         np.add.at(g, (3 * i[:, None] + np.arange(3)).ravel(), np.einsum("mab,mb->ma", at_o, e).ravel())
         np.add.at(g, (3 * j[:, None] + np.arange(3)).ravel(), np.einsum("mab,mb->ma", bt_o, e).ravel())
         free = slice(3, 3 * n)
-        step = spsolve(h[free, free], -g[free])
+        step = spsolve(h[free, free], -g[free], permc_spec="MMD_AT_PLUS_A")  # H is symmetric
         x[1:] += step.reshape(-1, 3)
         x[:, 2] = wrap_angle(x[:, 2])
         if np.max(np.abs(step)) < tolerance:
