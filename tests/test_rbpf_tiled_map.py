@@ -146,3 +146,21 @@ def test_only_tile_parts_an_echo_fell_into_hold_hit_sums():
     assert maps.hit_blocks_in_use == per_map[1]
     with_sums_everywhere = maps.tiles_in_use * maps.lo[0].nbytes * 4  # sums: 12 bytes a cell
     assert maps.nbytes() - maps.tables.nbytes < 0.6 * with_sums_everywhere
+
+
+def test_a_pool_grows_in_place_and_is_copied_while_another_array_refers_to_it():
+    """Grown tiles and hit blocks keep their rows and add zero ones; a view held elsewhere (which keeps
+    the memory from being remapped) still reads the rows it saw, and the pool then is a copy."""
+    maps = TiledMaps(2, 0.05, capacity=64)
+    maps.integrate(np.array([[0.0, 0.0, 0.0], [0.5, 0.0, 0.2]]), random_scan(np.random.default_rng(3)))
+    before, blocks = maps.lo.copy(), maps.hit_blocks.copy()
+    maps._reserve(maps.tiles_in_use + len(maps.refs))  # grown in place
+    assert len(maps.lo) > len(before) and len(maps.hit_blocks) > len(blocks)
+    np.testing.assert_array_equal(maps.lo[:len(before)], before)
+    np.testing.assert_array_equal(maps.hit_blocks[:len(blocks)], blocks)
+    assert not maps.lo[len(before):].any() and not maps.hit_blocks[len(blocks):].any()
+    held, values = maps.lo, maps.lo.copy()
+    maps._reserve(maps.tiles_in_use + 2 * len(maps.refs))  # copied: `held` refers to the old rows
+    assert maps.lo.base is not held.base and len(maps.lo) > len(held)
+    np.testing.assert_array_equal(held, values)
+    np.testing.assert_array_equal(maps.lo[:len(held)], values)
