@@ -275,25 +275,32 @@ def _share_settled(tables, refs, lo, hit_of, free_stack, free_top, l_min):
 
 @njit
 def _retable(tables, refs, free_stack, free_top, hit_of, hit_free_stack, hit_free_top, parents):
-    """Replace the maps by copies of ``parents``, keeping reference counts and the free stacks."""
-    old = tables.copy()
+    """Replace the maps by copies of ``parents``, keeping reference counts and the free stacks. Only
+    the parents' tables are copied (each once); every tile in them gains its children's references
+    before any map's old tiles are released."""
+    kept = np.unique(parents)
+    row = np.full(tables.shape[0], -1, np.int64)
+    copies = np.empty((kept.shape[0], tables.shape[1], tables.shape[2]), tables.dtype)
+    for i in range(kept.shape[0]):
+        copies[i] = tables[kept[i]]
+        row[kept[i]] = i
     for p in range(tables.shape[0]):
         for ty in range(tables.shape[1]):
             for tx in range(tables.shape[2]):
-                t = old[parents[p], ty, tx]
-                tables[p, ty, tx] = t
+                t = copies[row[parents[p]], ty, tx]
                 if t >= 0:
                     refs[t] += 1
-    for p in range(old.shape[0]):
-        for ty in range(old.shape[1]):
-            for tx in range(old.shape[2]):
-                t = old[p, ty, tx]
+    for p in range(tables.shape[0]):
+        for ty in range(tables.shape[1]):
+            for tx in range(tables.shape[2]):
+                t = tables[p, ty, tx]
                 if t >= 0:
                     refs[t] -= 1
                     if refs[t] == 0:
                         free_stack[free_top[0]] = t
                         free_top[0] += 1
                         _free_blocks(hit_of, t, hit_free_stack, hit_free_top)
+                tables[p, ty, tx] = copies[row[parents[p]], ty, tx]
 
 
 def part_cells(part: int) -> tuple[slice, slice]:
