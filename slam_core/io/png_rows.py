@@ -24,10 +24,13 @@ BPP = 3  # bytes a pixel
 NONE, SUB, UP, PAETH = 0, 1, 2, 4
 
 
+#: A byte's distance from zero, read as a signed byte.
+DISTANCE = np.array([v if v < 128 else 256 - v for v in range(256)], np.uint8)
+
+
 def _cost(filtered: np.ndarray) -> np.ndarray:
-    """Each row's sum of the bytes' distances from zero, read as signed bytes."""
-    v = filtered.astype(np.int64)
-    return np.where(v < 128, v, 256 - v).sum(axis=1)
+    """Each row's sum of the bytes' distances from zero."""
+    return DISTANCE[filtered].sum(axis=1, dtype=np.int64)
 
 
 def filtered_rows(rows: np.ndarray, previous: np.ndarray) -> np.ndarray:
