@@ -14,7 +14,7 @@ than :data:`MOVE_CELLS` of a cell or :data:`MOVE_RAD`) and the ones that are new
 Cells are on the absolute lattice (cell ``(ix, iy)`` spans ``[ix, ix + 1) * resolution``), and
 the dense counts grow in chunks of :data:`~slam_core.occupancy_grid.GROW_CHUNK` cells aligned
 to it, as an :class:`~slam_core.occupancy_grid.OccupancyGrid` started empty does.
-:func:`render` gives the same grid once, for a finished log, without keeping the counts.
+:class:`slam_core.map_bands.MapBands` gives the same cells for a finished log, a band of rows at a time.
 """
 
 from __future__ import annotations
@@ -76,26 +76,6 @@ def _add_counts(counts, log_odds, cells, width, dx, dy, occupied, free, sign, l_
         counts[iy, ix, FREE] += sign * np.int64(free[k])
         v = l_occ * counts[iy, ix, OCC] + l_free * counts[iy, ix, FREE]
         log_odds[iy, ix] = min(max(v, l_min), l_max)
-
-
-@njit
-def _add_plain(occupied_sums, free_sums, cells, width, dx, dy, occupied, free):
-    """``occupied_sums[iy, ix]`` and ``free_sums[iy, ix]`` += the counts of ``cells`` (as in
-    :func:`_add_counts`)."""
-    for k in range(cells.shape[0]):
-        iy, ix = cells[k] // width + dy, cells[k] % width + dx
-        occupied_sums[iy, ix] += occupied[k]
-        free_sums[iy, ix] += free[k]
-
-
-@njit
-def _to_log_odds(occupied_sums, free_sums, l_occ, l_free, l_min, l_max):
-    """In place: the counts in ``occupied_sums`` become the cells' clamped log-odds, rounded to
-    float32 as :class:`CountMap` keeps them."""
-    for iy in range(occupied_sums.shape[0]):
-        for ix in range(occupied_sums.shape[1]):
-            v = l_occ * occupied_sums[iy, ix] + l_free * free_sums[iy, ix]
-            occupied_sums[iy, ix] = np.float32(min(max(v, l_min), l_max))
 
 
 def _reach(laser_poses: np.ndarray, scans: list[Scan], model: SensorModel, inv: float) -> np.ndarray:
@@ -271,34 +251,3 @@ def _grid_over(resolution: float, model: SensorModel, corner: np.ndarray, shape:
     x, y = corner - np.round(grid.origin / resolution).astype(np.int64)
     return grid, grid.data[y:y + ny, x:x + nx] if nx and ny else np.zeros((0, 0))
 
-
-def render(laser_poses: np.ndarray, scans: list[Scan], resolution: float, model: SensorModel,
-           submap_updates: int) -> OccupancyGrid:
-    """:meth:`CountMap.grid` of these updates, cell for cell, holding only the grid and one int32 count
-    a cell beside it while it renders (a :class:`CountMap` keeps 12 bytes a cell and every submap's
-    cells besides): each submap is traced once for the map's bounds, then again to add its counts,
-    the occupied ones into the grid's own cells, which become log-odds at the end."""
-    laser_poses = np.asarray(laser_poses, np.float64).reshape(-1, 3)
-    if len(laser_poses) != len(scans):
-        raise ValueError(f"{len(laser_poses)} poses for {len(scans)} scans")
-    blocks = [slice(first, first + submap_updates) for first in range(0, len(scans), submap_updates)]
-
-    def traced():
-        for block in blocks:
-            submap = SubmapCounts.trace(laser_poses[block], scans[block], resolution, model)
-            if len(submap.cells):
-                yield submap
-
-    bounds = [(s.lo, s.hi) for s in traced()]
-    if not bounds:
-        return OccupancyGrid(resolution, model=model)
-    lo, hi = np.min([b[0] for b in bounds], axis=0), np.max([b[1] for b in bounds], axis=0)
-    corner = np.floor_divide(lo, GROW_CHUNK) * GROW_CHUNK  # as CountMap's dense counts grow
-    nx, ny = (np.floor_divide(hi, GROW_CHUNK) + 1) * GROW_CHUNK - corner
-    grid, occupied = _grid_over(resolution, model, corner, (ny, nx))
-    free = np.zeros((ny, nx), np.int32)
-    for submap in traced():
-        dx, dy = submap.corner - corner
-        _add_plain(occupied, free, submap.cells, submap.width, dx, dy, submap.occupied, submap.free)
-    _to_log_odds(occupied, free, model.l_occ, model.l_free, model.l_min, model.l_max)
-    return grid

@@ -147,12 +147,20 @@ class OccupancyGrid:
 
     def probability(self, rows: slice = slice(None)) -> np.ndarray:
         """Occupancy probability of every cell (0.5 where nothing was seen), or of ``rows``."""
-        return 1.0 - 1.0 / (1.0 + np.exp(self.data[rows].astype(np.float64)))
+        return probability(self.data[rows])
 
     def row_blocks(self):
         """Slices of at most ``ROW_BLOCK`` rows covering the grid: convert a large map a block
         at a time (its float64 probability is twice the size of the map)."""
         return [slice(y, y + ROW_BLOCK) for y in range(0, self.shape[0], ROW_BLOCK)]
+
+    def bands(self):
+        """``(rows, log_odds)``: the grid ``ROW_BLOCK`` rows at a time, from the top (largest y) down, as
+        :meth:`slam_core.map_bands.MapBands.bands` gives a map too large to hold (the map writers take
+        either)."""
+        for top in range(self.shape[0], 0, -ROW_BLOCK):
+            rows = slice(max(0, top - ROW_BLOCK), top)
+            yield rows, self.data[rows]
 
     def trinary(self, occupied_thresh: float = OCCUPIED_THRESH,
                 free_thresh: float = FREE_THRESH) -> np.ndarray:
@@ -164,6 +172,11 @@ class OccupancyGrid:
             block[p > occupied_thresh] = 100
             block[p < free_thresh] = 0
         return out
+
+
+def probability(log_odds: np.ndarray) -> np.ndarray:
+    """Occupancy probability of log-odds (0.5 where nothing was seen), in float64."""
+    return 1.0 - 1.0 / (1.0 + np.exp(log_odds.astype(np.float64)))
 
 
 def _chunks(cells_missing: int) -> int:

@@ -8,7 +8,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from slam_core.count_map import MOVE_CELLS, MOVE_RAD, CountMap, render
+from slam_core.count_map import MOVE_CELLS, MOVE_RAD, CountMap
 from slam_core.occupancy_grid import OccupancyGrid, SensorModel
 from slam_core.rbpf.hit_render import hit_sums_on
 from tests.test_hit_render import scans_with_every_kind_of_beam
@@ -102,27 +102,6 @@ def test_an_incremental_render_equals_one_from_scratch_and_traces_only_moved_sub
     assert np.array_equal(counts.counts.sum(axis=(0, 1)), scratch.counts.sum(axis=(0, 1)))
     grid = counts.grid()
     np.testing.assert_allclose(counts.hit_sums(grid).dense(), scratch.hit_sums(grid).dense(), atol=1e-5)
-
-
-@settings(max_examples=10, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(seed=st.integers(0, 2**16), n=st.integers(1, 13))
-def test_a_one_shot_render_is_the_count_maps_grid_cell_for_cell(seed, n):
-    """``render`` (homebot slam's final map, without whole-map counts) against CountMap's grid: the
-    same origin, shape and values, over submaps that are whole, partial, or one update."""
-    poses, scans = updates(seed, n)
-    counts = CountMap(RES, MODEL, SIZE)
-    counts.update(poses, scans)
-    expected, mine = counts.grid(), render(poses, scans, RES, MODEL, SIZE)
-    assert mine.shape == expected.shape and np.array_equal(mine.origin, expected.origin)
-    np.testing.assert_array_equal(mine.data, expected.data)
-    assert np.count_nonzero(mine.data) > 100
-
-
-def test_a_one_shot_render_of_nothing_is_an_empty_grid_and_bad_input_is_refused():
-    assert render(np.zeros((0, 3)), [], RES, MODEL, SIZE).data.size == 0
-    poses, scans = updates(4, 5)
-    with pytest.raises(ValueError, match="poses for"):
-        render(poses[:3], scans, RES, MODEL, SIZE)
 
 
 def test_moves_within_the_tolerance_trace_nothing_and_keep_the_map_of_the_traced_poses():

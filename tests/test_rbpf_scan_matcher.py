@@ -12,6 +12,7 @@ from slam_core.rbpf.proposal import match_starts
 from slam_core.rbpf.scan_matcher import (
     P_HUBER,
     P_LSIGMA2,
+    P_OCCUPIED,
     P_PRIOR_TH,
     P_PRIOR_XY,
     _residual,
@@ -19,6 +20,7 @@ from slam_core.rbpf.scan_matcher import (
     local_line,
     match,
     pose_likelihood,
+    surface_point,
 )
 from slam_core.rbpf.tiled_map import TILE, TiledMaps
 from tests.synthetic_room import room_scan
@@ -180,3 +182,26 @@ def test_the_matcher_remembering_cells_gives_exactly_the_plain_result(room_map, 
     assert (x, y, th, matched) == (rx, ry, rth, rmatched)
     np.testing.assert_array_equal(info, rinfo)
     assert (x, y, th) != tuple(start)
+
+
+def test_surface_points_read_from_the_tile_parts_are_the_dense_mean_endpoints(room_map):
+    """``surface_point`` (the matcher's one reader of the hit blocks, kept by tile part) against the
+    mean endpoints of the map's dense hit sums and log-odds, cell for cell, map edges included."""
+    grid, sums = room_map.to_grid(0), room_map.hit_sums(0)
+    occupied_lo = float(MatcherParams().packed()[P_OCCUPIED])
+    shift = np.round((grid.origin - room_map.origin) / room_map.resolution).astype(int)
+    ny, nx = grid.shape
+    found_any = 0
+    for iy in range(-2, ny + 2):
+        for ix in range(-2, nx + 2):
+            gx, gy = ix + shift[0], iy + shift[1]
+            found, x, y = surface_point(room_map.tables[0], room_map.lo, room_map.hits, room_map.origin[0],
+                                        room_map.origin[1], room_map.resolution, gx, gy, occupied_lo)
+            inside = 0 <= iy < ny and 0 <= ix < nx
+            n = sums[iy, ix, 2] if inside else 0.0
+            assert found == (inside and n > 0 and grid.data[iy, ix] > occupied_lo)
+            if found:
+                found_any += 1
+                ox, oy, res = room_map.origin[0], room_map.origin[1], room_map.resolution
+                assert (x, y) == (ox + gx * res + sums[iy, ix, 0] / n, oy + gy * res + sums[iy, ix, 1] / n)
+    assert found_any > 100

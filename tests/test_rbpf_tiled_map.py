@@ -3,7 +3,7 @@
 import numpy as np
 
 from slam_core.occupancy_grid import OccupancyGrid
-from slam_core.rbpf.tiled_map import HIT_N, TILE, TiledMaps
+from slam_core.rbpf.tiled_map import HIT_N, PART, TILE, TiledMaps
 from slam_core.scan import Scan
 
 
@@ -125,8 +125,8 @@ def test_writes_that_change_nothing_copy_no_tile():
     assert maps.to_grid(0).data.max() > maps.model.l_min  # the echo was written
 
 
-def test_only_tiles_an_echo_fell_into_hold_hit_sums():
-    """Hit blocks: none for free space, one per tile with an echo, freed with their tile."""
+def test_only_tile_parts_an_echo_fell_into_hold_hit_sums():
+    """Hit blocks: none for free space, one per part of a tile with an echo, freed with their tile."""
     maps = TiledMaps(2, 0.05)
     no_return = Scan(np.linspace(-np.pi, np.pi, 180, endpoint=False), np.full(180, 80.0), 0.1, 80.0)
     maps.integrate(np.zeros((2, 3)), no_return)
@@ -136,13 +136,31 @@ def test_only_tiles_an_echo_fell_into_hold_hit_sums():
     for i in range(2):
         sums = maps.hit_sums(i)
         n = sums[..., HIT_N]
-        tiles_hit = {(iy // TILE, ix // TILE) for iy, ix in np.argwhere(n > 0)}
-        assert len(tiles_hit) == int(np.sum(maps.hit_of[maps.tables[i][maps.tables[i] >= 0]] >= 0))
+        parts_hit = {(iy // PART, ix // PART) for iy, ix in np.argwhere(n > 0)}  # the sums start at a tile
+        assert len(parts_hit) == int(np.sum(maps.hit_of[maps.tables[i][maps.tables[i] >= 0]] >= 0))
         inside = sums[..., :HIT_N][n > 0] / n[n > 0, None]
         assert inside.min() >= 0.0 and inside.max() < maps.resolution  # mean endpoints lie in their cells
     per_map = [int(np.sum(maps.hit_of[maps.tables[i][maps.tables[i] >= 0]] >= 0)) for i in range(2)]
     assert maps.hit_blocks_in_use == sum(per_map) > 0
     maps.resample(np.array([1, 1]))
     assert maps.hit_blocks_in_use == per_map[1]
-    with_sums_everywhere = maps.tiles_in_use * (maps.lo[0].nbytes + maps.hit_blocks[0].nbytes)
+    with_sums_everywhere = maps.tiles_in_use * maps.lo[0].nbytes * 4  # sums: 12 bytes a cell
     assert maps.nbytes() - maps.tables.nbytes < 0.6 * with_sums_everywhere
+
+
+def test_a_pool_grows_in_place_and_is_copied_while_another_array_refers_to_it():
+    """Grown tiles and hit blocks keep their rows and add zero ones; a view held elsewhere (which keeps
+    the memory from being remapped) still reads the rows it saw, and the pool then is a copy."""
+    maps = TiledMaps(2, 0.05, capacity=64)
+    maps.integrate(np.array([[0.0, 0.0, 0.0], [0.5, 0.0, 0.2]]), random_scan(np.random.default_rng(3)))
+    before, blocks = maps.lo.copy(), maps.hit_blocks.copy()
+    maps._reserve(maps.tiles_in_use + len(maps.refs))  # grown in place
+    assert len(maps.lo) > len(before) and len(maps.hit_blocks) > len(blocks)
+    np.testing.assert_array_equal(maps.lo[:len(before)], before)
+    np.testing.assert_array_equal(maps.hit_blocks[:len(blocks)], blocks)
+    assert not maps.lo[len(before):].any() and not maps.hit_blocks[len(blocks):].any()
+    held, values = maps.lo, maps.lo.copy()
+    maps._reserve(maps.tiles_in_use + 2 * len(maps.refs))  # copied: `held` refers to the old rows
+    assert maps.lo.base is not held.base and len(maps.lo) > len(held)
+    np.testing.assert_array_equal(held, values)
+    np.testing.assert_array_equal(maps.lo[:len(held)], values)

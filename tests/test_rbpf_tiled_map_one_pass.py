@@ -43,8 +43,7 @@ def resolved(maps: TiledMaps, index: int) -> dict:
     """Map ``index``'s cells in its tiles, keyed like the reference's; cells never written left out."""
     places = np.argwhere(maps.tables[index] >= 0)
     tiles = maps.tables[index][places[:, 0], places[:, 1]]
-    blocks = maps.hit_of[tiles]
-    hits = np.where((blocks >= 0)[:, None, None, None], maps.hit_blocks[np.maximum(blocks, 0)], 0)
+    hits = np.array([maps.tile_hit_sums(t) for t in tiles]).reshape(len(tiles), TILE, TILE, 3)
     values = np.concatenate([maps.lo[tiles][..., None], hits[..., [HIT_X, HIT_Y, HIT_N]]], axis=-1)
     cy, cx = np.mgrid[0:TILE, 0:TILE]
     shift = np.round(maps.origin / maps.resolution).astype(int)
@@ -64,7 +63,7 @@ def tiles_by_place(maps: TiledMaps) -> list[dict]:
 
 def is_settled(maps: TiledMaps, t: int) -> bool:
     """Whether tile ``t`` is settled free space: every cell at ``l_min``, no hit block."""
-    return maps.hit_of[t] < 0 and bool(np.all(maps.lo[t] == np.float32(maps.model.l_min)))
+    return bool(np.all(maps.hit_of[t] < 0) and np.all(maps.lo[t] == np.float32(maps.model.l_min)))
 
 
 def assert_pools_consistent(maps: TiledMaps) -> None:

@@ -72,9 +72,8 @@ def run(args) -> int:
         result = slam_from_log(log, config, seed=args.seed, on_scan=lambda: tick(1),
                                laser_mount=args.laser_mount, resume=resume)
     args.out.mkdir(parents=True, exist_ok=True)
-    grid = result.grid
-    pgm, yml = save_map(grid, args.out / "map")
-    png = save_png(grid, args.out / "map.png", result.trajectory.poses,
+    pgm, yml = save_map(result.map, args.out / "map")
+    png = save_png(result.map, args.out / "map.png", result.trajectory.poses,
                    caption="homebot RBPF SLAM" + (" - " + CREDIT if is_bundled(log) else ""))
     traj = result.trajectory.save(args.out / "trajectory.txt")
     particle = result.particle_trajectory.save(args.out / "particle_trajectory.txt")

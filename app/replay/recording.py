@@ -102,8 +102,9 @@ class ReplayRecording:
         closed = None
         if config.loop_closure.enabled:
             scans = [r.scan for r in self.records]
-            poses, grid, closed, _ = close_filter_loops(config, slam.mount, best, update_of_scan,
-                                                        self._is_update, odometry, scans)
+            poses, bands, closed, _ = close_filter_loops(config, slam.mount, best, update_of_scan,
+                                                         self._is_update, odometry, scans)
+            grid = bands.grid()
         else:
             poses, grid = particle, slam.occupancy_map()
         stats = {

@@ -14,12 +14,16 @@ free, anything between unknown (in ``scale`` mode, between values keep ``p``).
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import yaml
 from PIL import Image
 
-from slam_core.occupancy_grid import FREE_THRESH, OCCUPIED_THRESH, OccupancyGrid, logit
+from slam_core.occupancy_grid import FREE_THRESH, OCCUPIED_THRESH, OccupancyGrid, logit, probability
+
+if TYPE_CHECKING:
+    from slam_core.map_bands import MapBands
 
 FREE_VALUE = 254
 OCCUPIED_VALUE = 0
@@ -33,16 +37,16 @@ class MapFileError(ValueError):
     problem: str
 
 
-def save_map(grid: OccupancyGrid, stem) -> tuple[Path, Path]:
-    """Write ``stem.pgm`` and ``stem.yaml`` (trinary mode); returns both paths."""
+def save_map(grid: OccupancyGrid | MapBands, stem) -> tuple[Path, Path]:
+    """Write ``stem.pgm`` and ``stem.yaml`` (trinary mode), a band of rows at a time; returns both paths."""
     stem = Path(stem)
     stem.parent.mkdir(parents=True, exist_ok=True)
-    trinary = grid.trinary()
-    image = np.full(trinary.shape, UNKNOWN_VALUE, np.uint8)
-    image[trinary == 0] = FREE_VALUE
-    image[trinary == 100] = OCCUPIED_VALUE
     pgm = stem.with_suffix(".pgm")
-    Image.fromarray(np.flipud(image)).save(pgm)
+    ny, nx = grid.shape
+    with open(pgm, "wb") as out:
+        out.write(b"P5\n%d %d\n255\n" % (nx, ny))  # as Pillow writes a grey PGM
+        for _, log_odds in grid.bands():
+            out.write(_trinary_pixels(log_odds).tobytes())
     meta = {
         "image": pgm.name,
         "mode": "trinary",
@@ -55,6 +59,15 @@ def save_map(grid: OccupancyGrid, stem) -> tuple[Path, Path]:
     yml = stem.with_suffix(".yaml")
     yml.write_text(yaml.safe_dump(meta, sort_keys=False, default_flow_style=None))
     return pgm, yml
+
+
+def _trinary_pixels(log_odds: np.ndarray) -> np.ndarray:
+    """The image rows (top row first) of grid rows' log-odds: free, occupied or unknown."""
+    p = probability(log_odds)
+    image = np.full(p.shape, UNKNOWN_VALUE, np.uint8)
+    image[p < FREE_THRESH] = FREE_VALUE
+    image[p > OCCUPIED_THRESH] = OCCUPIED_VALUE
+    return np.flipud(image)
 
 
 #: Largest map image accepted (pixels), checked from the image header before any decoding.

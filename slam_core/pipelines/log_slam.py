@@ -7,11 +7,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from slam_core.count_map import render
 from slam_core.geometry import compose, relative
 from slam_core.graph.loop_closure import LoopClosureResult, close_loops, per_scan_poses, scan_poses
 from slam_core.io.carmen import TruncatedLogError, laser_mount_of, laser_records
 from slam_core.io.trajectory import Trajectory
+from slam_core.map_bands import MapBands
 from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.rbpf import RBPFConfig, RBPFSlam, RBPFStats
 from slam_core.rbpf.laser_mount import LaserMount
@@ -23,14 +23,15 @@ class SlamRun:
     """What the filter did, its best particle's trajectory for every scan
     (``particle_trajectory``) and the result: the trajectory and map after loop closing
     (the particle's own when the back end is off). Trajectories are the robot's; the
-    laser sat at ``laser_mount``."""
+    laser sat at ``laser_mount``. ``map`` is the back end's by row bands (the map files are
+    written from it without the whole map in memory) or the particle's grid; ``grid`` is it whole."""
 
     stats: RBPFStats
     map_bytes: int
     tiles_in_use: int
     particle_trajectory: Trajectory
     trajectory: Trajectory
-    grid: OccupancyGrid
+    map: OccupancyGrid | MapBands
     wall_time: float
     filter_time: float
     log_duration: float
@@ -39,6 +40,10 @@ class SlamRun:
     laser_mount: LaserMount = field(default_factory=LaserMount)
     #: Every update so far (a resumed session's first), to be saved and continued later.
     session: MappingSession | None = None
+
+    @property
+    def grid(self) -> OccupancyGrid:
+        return self.map if isinstance(self.map, OccupancyGrid) else self.map.grid()
 
 
 def slam_from_log(log_path, config: RBPFConfig | None = None, seed: int = 0,
@@ -108,12 +113,12 @@ def slam_from_log(log_path, config: RBPFConfig | None = None, seed: int = 0,
         return SlamRun(*filtered, particle, particle, slam.occupancy_map(), filter_time, filter_time,
                        duration, None, warnings, mount, session)
     del slam  # the particles' maps: the back end renders its own
-    final, grid, closed, updates = close_filter_loops(config, mount, best, update_of_scan, is_update,
-                                                      odometry, scans, resume)
+    final, bands, closed, updates = close_filter_loops(config, mount, best, update_of_scan, is_update,
+                                                       odometry, scans, resume)
     session = _session_after(None, config, mount, updates.poses, updates.odometry,
                              (resume.scans if resume else []) + update_scans, final[-1])
     wall = time.perf_counter() - started
-    return SlamRun(*filtered, particle, Trajectory(stamps, final), grid, wall, filter_time, duration,
+    return SlamRun(*filtered, particle, Trajectory(stamps, final), bands, wall, filter_time, duration,
                    closed, warnings, mount, session)
 
 
@@ -144,10 +149,10 @@ def best_updates(slam: RBPFSlam) -> BestUpdates:
 def close_filter_loops(config: RBPFConfig, mount: LaserMount, best: BestUpdates, update_of_scan: np.ndarray,
                        is_update: np.ndarray, odometry: np.ndarray, scans: list,
                        prior: MappingSession | None = None,
-                       ) -> tuple[np.ndarray, OccupancyGrid, LoopClosureResult, BestUpdates]:
+                       ) -> tuple[np.ndarray, MapBands, LoopClosureResult, BestUpdates]:
     """The back end after the filter: close the best particle's loops, give every scan a robot pose
     (``update_of_scan``: each scan's last update; ``is_update``: the scans the filter updated
-    with) and render the map from the optimised poses of the updates (the laser at ``mount``;
+    with) and the map of the optimised poses of the updates by row bands (the laser at ``mount``;
     clamped after the sum, :mod:`slam_core.count_map`, as the live back end renders it).
     A ``prior`` session's updates come first in the graph (the filter went on from its end).
     Also returns every update's final pose and odometry (the prior's first)."""
@@ -165,6 +170,6 @@ def close_filter_loops(config: RBPFConfig, mount: LaserMount, best: BestUpdates,
                        config.matcher, config.sensor, mount)
     del submaps
     update_poses = np.vstack([closed.poses[:first], final[is_update]])
-    grid = render(mount.laser_poses(update_poses), update_scans, config.resolution, config.sensor,
-                  lc.submap_updates)
-    return final, grid, closed, BestUpdates(update_poses, best.odometry)
+    bands = MapBands(mount.laser_poses(update_poses), update_scans, config.resolution, config.sensor,
+                     lc.submap_updates)
+    return final, bands, closed, BestUpdates(update_poses, best.odometry)

@@ -35,7 +35,7 @@ from __future__ import annotations
 import numpy as np
 
 from slam_core.jit import njit
-from slam_core.rbpf.tiled_map import HIT_N, HIT_X, HIT_Y, TILE, TILE_BITS
+from slam_core.rbpf.tiled_map import HIT_N, HIT_X, HIT_Y, PART, TILE, TILE_BITS, part_of
 
 #: How far (in cells) behind a beam's endpoint its free-space check looks.
 FREE_STEP = 1.5
@@ -78,14 +78,15 @@ def surface_point(table, lo, hits, origin_x, origin_y, resolution, ix, iy, occup
         return False, 0.0, 0.0
     ly = iy & (TILE - 1)
     lx = ix & (TILE - 1)
-    h = hits[0][t]  # not unpacked into locals (see the module's docstring)
+    h = hits[0][t, part_of(ly, lx)]  # not unpacked into locals (see the module's docstring)
     if h < 0:
         return False, 0.0, 0.0
-    n = hits[1][h, ly, lx, HIT_N]
+    hy, hx = ly & (PART - 1), lx & (PART - 1)
+    n = hits[1][h, hy, hx, HIT_N]
     if lo[t, ly, lx] <= occupied_lo or n <= 0.0:
         return False, 0.0, 0.0
-    return (True, origin_x + ix * resolution + hits[1][h, ly, lx, HIT_X] / n,
-            origin_y + iy * resolution + hits[1][h, ly, lx, HIT_Y] / n)
+    return (True, origin_x + ix * resolution + hits[1][h, hy, hx, HIT_X] / n,
+            origin_y + iy * resolution + hits[1][h, hy, hx, HIT_Y] / n)
 
 
 @njit(inline="always")

@@ -10,9 +10,10 @@ Each cell holds the occupancy in log-odds (see :mod:`slam_core.raycast`) and
 the running sum and count of the beam endpoints that fell into it: the mean
 endpoint locates the surface inside the cell, which the scan matcher uses for
 sub-cell accuracy (as GMapping's point accumulators do). A tile's log-odds take
-1 KB; the sums take 3 KB more, so only a tile that some echo fell into has them,
-in a *hit block* of its own (copied with the tile): most tiles a scan crosses are
-free space and have none.
+1 KB; the sums of a ``PART`` x ``PART`` part of it take ``PART**2 * 12`` bytes, so only a
+part that some echo fell into has them, in a *hit block* of its own (copied with the
+tile): most tiles a scan crosses are free space and have none, and a wall crosses a few
+of a tile's parts (``hit_of[t, part_of(cy, cx)]`` is the block of tile ``t``'s cell ``(cy, cx)``).
 
 Outdoors a third of the tiles in use end up as private copies of settled free space: every
 cell at the lower clamp ``l_min``, no echo. Before a pool grows, all such tiles are made one
@@ -21,6 +22,8 @@ write leaves it shared as it leaves any cell at ``l_min``.
 """
 
 from __future__ import annotations
+
+import mmap
 
 import numpy as np
 from numba import prange
@@ -31,6 +34,10 @@ from slam_core.raycast import beam_endpoint, ray_buffer_size, trace_ray
 
 TILE_BITS = 4
 TILE = 1 << TILE_BITS
+#: A hit block holds the sums of PART x PART cells of a tile, one of its PARTS parts.
+PART_BITS = 2
+PART = 1 << PART_BITS
+PARTS = (TILE // PART) ** 2
 #: Empty tiles added around the lattice whenever it grows.
 GROW_MARGIN_TILES = 4
 #: Hit sums: x, y (metres from the cell's lower-left corner) and count.
@@ -43,10 +50,25 @@ MIN_SLICE = 16
 
 
 @njit
+def part_of(cy, cx):
+    """The part of a tile that holds its cell ``(cy, cx)`` (``hit_of``'s second index)."""
+    return ((cy >> PART_BITS) << (TILE_BITS - PART_BITS)) | (cx >> PART_BITS)
+
+
+@njit
+def _parts_with_hits(hit_of, t):
+    n = 0
+    for j in range(PARTS):
+        if hit_of[t, j] >= 0:
+            n += 1
+    return n
+
+
+@njit
 def _demand(tables, refs, hit_of, origin_x, origin_y, tile_size, poses, reach, beams, tiles, blocks):
     """Upper bounds of the tiles and hit blocks a scan from each map's pose can take: the tiles
-    within ``reach`` that are not that map's own (missing or shared), and the tiles there
-    without a hit block of their own, at most one per beam plus the shared ones with one."""
+    within ``reach`` that are not that map's own (missing or shared), and the parts there
+    without a hit block of their own, at most one per beam, plus the shared tiles' blocks."""
     n_ty, n_tx = tables.shape[1], tables.shape[2]
     for p in range(poses.shape[0]):  # serial: a parallel launch costs more than this loop
         tx0 = max(int(np.floor((poses[p, 0] - reach - origin_x) / tile_size)) - 1, 0)
@@ -59,14 +81,11 @@ def _demand(tables, refs, hit_of, origin_x, origin_y, tile_size, poses, reach, b
         for ty in range(ty0, ty1 + 1):
             for tx in range(tx0, tx1 + 1):
                 t = tables[p, ty, tx]
+                held = 0 if t < 0 else _parts_with_hits(hit_of, t)
+                without_hits += PARTS - held
                 if t < 0 or refs[t] != 1:
                     foreign += 1
-                    if t >= 0 and hit_of[t] >= 0:
-                        foreign_hits += 1
-                    else:
-                        without_hits += 1
-                elif hit_of[t] < 0:
-                    without_hits += 1
+                    foreign_hits += held
         tiles[p] = foreign
         blocks[p] = foreign_hits + min(without_hits, beams)
 
@@ -103,47 +122,49 @@ def _integrate_map(p, tables, refs, lo, hit_of, hit_blocks, stack, bottom, top, 
                 continue
             cy = iy & (TILE - 1)
             cx = ix & (TILE - 1)
+            part = part_of(cy, cx)
             echo = hit and k == n - 1
             t = tables[p, ty, tx]
             if t < 0 or refs[t] != 1:
                 # A free-space write to a cell already at l_min changes nothing: the tile stays shared.
                 if not echo and t >= 0 and np.float32(max(lo[t, cy, cx] + l_free, l_min)) == lo[t, cy, cx]:
                     continue
-                with_hits = echo or (t >= 0 and hit_of[t] >= 0)
-                if top[p] == bottom[p] or (with_hits and hit_top[p] == hit_bottom[p]):
+                blocks = 0 if t < 0 else _parts_with_hits(hit_of, t)  # copied with the tile
+                if echo and (t < 0 or hit_of[t, part] < 0):
+                    blocks += 1
+                if top[p] == bottom[p] or hit_top[p] - hit_bottom[p] < blocks:
                     return b, k
                 top[p] -= 1
                 new = stack[top[p]]
                 source[top[p] - base] = t
                 refs[new] = 1
-                hit_of[new] = -1
                 if t < 0:
                     lo[new] = 0.0
                 else:
                     lo[new] = lo[t]
-                if with_hits:
-                    hit_top[p] -= 1
-                    h = hit_stack[hit_top[p]]
-                    if t >= 0 and hit_of[t] >= 0:
-                        hit_blocks[h] = hit_blocks[hit_of[t]]
-                    else:
-                        hit_blocks[h] = 0.0
-                    hit_of[new] = h
+                for j in range(PARTS):
+                    hit_of[new, j] = -1
+                    if t >= 0 and hit_of[t, j] >= 0:
+                        hit_top[p] -= 1
+                        h = hit_stack[hit_top[p]]
+                        hit_blocks[h] = hit_blocks[hit_of[t, j]]
+                        hit_of[new, j] = h
                 tables[p, ty, tx] = new
                 t = new
-            elif echo and hit_of[t] < 0:
-                if hit_top[p] == hit_bottom[p]:
-                    return b, k
-                hit_top[p] -= 1
-                h = hit_stack[hit_top[p]]
-                hit_blocks[h] = 0.0
-                hit_of[t] = h
+            elif echo and hit_of[t, part] < 0 and hit_top[p] == hit_bottom[p]:
+                return b, k
             if echo:
+                if hit_of[t, part] < 0:
+                    hit_top[p] -= 1
+                    h = hit_stack[hit_top[p]]
+                    hit_blocks[h] = 0.0
+                    hit_of[t, part] = h
                 lo[t, cy, cx] = min(lo[t, cy, cx] + l_occ, l_max)
-                h = hit_of[t]
-                hit_blocks[h, cy, cx, HIT_X] += ex - (origin_x + ix * resolution)
-                hit_blocks[h, cy, cx, HIT_Y] += ey - (origin_y + iy * resolution)
-                hit_blocks[h, cy, cx, HIT_N] += 1.0
+                h = hit_of[t, part]
+                hy, hx = cy & (PART - 1), cx & (PART - 1)
+                hit_blocks[h, hy, hx, HIT_X] += ex - (origin_x + ix * resolution)
+                hit_blocks[h, hy, hx, HIT_Y] += ey - (origin_y + iy * resolution)
+                hit_blocks[h, hy, hx, HIT_N] += 1.0
             else:
                 lo[t, cy, cx] = max(lo[t, cy, cx] + l_free, l_min)
         first = 0
@@ -186,6 +207,16 @@ def _compact(stack, base, bottom, top):
 
 
 @njit
+def _free_blocks(hit_of, t, hit_stack, hit_free_top):
+    """Put tile ``t``'s hit blocks back on their free stack."""
+    for j in range(PARTS):
+        if hit_of[t, j] >= 0:
+            hit_stack[hit_free_top[0]] = hit_of[t, j]
+            hit_free_top[0] += 1
+            hit_of[t, j] = -1
+
+
+@njit
 def _settle(refs, hit_of, source, stack, free_top, base, bottom, ceiling, top, hit_stack, hit_free_top,
             hit_base, hit_bottom, hit_top):
     """After :func:`_integrate`: one reference fewer for every tile copied, freeing (with its hit
@@ -205,10 +236,7 @@ def _settle(refs, hit_of, source, stack, free_top, base, bottom, ceiling, top, h
             if s >= 0:
                 stack[free_top[0]] = s
                 free_top[0] += 1
-                if hit_of[s] >= 0:
-                    hit_stack[hit_free_top[0]] = hit_of[s]
-                    hit_free_top[0] += 1
-                    hit_of[s] = -1
+                _free_blocks(hit_of, s, hit_stack, hit_free_top)
 
 
 @njit
@@ -228,7 +256,7 @@ def _share_settled(tables, refs, lo, hit_of, free_stack, free_top, l_min):
     settled = np.zeros(refs.shape[0], np.bool_)
     keep = -1
     for t in range(refs.shape[0]):
-        if refs[t] > 0 and hit_of[t] < 0 and _is_settled(lo, t, l_min):
+        if refs[t] > 0 and _parts_with_hits(hit_of, t) == 0 and _is_settled(lo, t, l_min):
             settled[t] = True
             if keep < 0:
                 keep = t
@@ -247,28 +275,38 @@ def _share_settled(tables, refs, lo, hit_of, free_stack, free_top, l_min):
 
 @njit
 def _retable(tables, refs, free_stack, free_top, hit_of, hit_free_stack, hit_free_top, parents):
-    """Replace the maps by copies of ``parents``, keeping reference counts and the free stacks."""
-    old = tables.copy()
+    """Replace the maps by copies of ``parents``, keeping reference counts and the free stacks. Only
+    the parents' tables are copied (each once); every tile in them gains its children's references
+    before any map's old tiles are released."""
+    kept = np.unique(parents)
+    row = np.full(tables.shape[0], -1, np.int64)
+    copies = np.empty((kept.shape[0], tables.shape[1], tables.shape[2]), tables.dtype)
+    for i in range(kept.shape[0]):
+        copies[i] = tables[kept[i]]
+        row[kept[i]] = i
     for p in range(tables.shape[0]):
         for ty in range(tables.shape[1]):
             for tx in range(tables.shape[2]):
-                t = old[parents[p], ty, tx]
-                tables[p, ty, tx] = t
+                t = copies[row[parents[p]], ty, tx]
                 if t >= 0:
                     refs[t] += 1
-    for p in range(old.shape[0]):
-        for ty in range(old.shape[1]):
-            for tx in range(old.shape[2]):
-                t = old[p, ty, tx]
+    for p in range(tables.shape[0]):
+        for ty in range(tables.shape[1]):
+            for tx in range(tables.shape[2]):
+                t = tables[p, ty, tx]
                 if t >= 0:
                     refs[t] -= 1
                     if refs[t] == 0:
                         free_stack[free_top[0]] = t
                         free_top[0] += 1
-                        if hit_of[t] >= 0:
-                            hit_free_stack[hit_free_top[0]] = hit_of[t]
-                            hit_free_top[0] += 1
-                            hit_of[t] = -1
+                        _free_blocks(hit_of, t, hit_free_stack, hit_free_top)
+                tables[p, ty, tx] = copies[row[parents[p]], ty, tx]
+
+
+def part_cells(part: int) -> tuple[slice, slice]:
+    """The cells ``[rows, columns]`` of a tile that its part ``part`` holds."""
+    y, x = divmod(int(part), TILE // PART)
+    return slice(y * PART, (y + 1) * PART), slice(x * PART, (x + 1) * PART)
 
 
 def _slices(free: int, want: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
@@ -312,12 +350,13 @@ class TiledMaps:
                  capacity: int = 16384):
         self.resolution = float(resolution)
         self.model = model or SensorModel()
-        self.lo = np.zeros((capacity, TILE, TILE), np.float32)
+        self._mapped: dict[str, mmap.mmap] = {}  # the large pools' memory, grown in place
+        self.lo = self._mapped_zeros("lo", (capacity, TILE, TILE))
         self.refs = np.zeros(capacity, np.int32)
-        self.hit_of = np.full(capacity, -1, np.int32)
+        self.hit_of = np.full((capacity, PARTS), -1, np.int32)
         self.free_stack = np.arange(capacity - 1, -1, -1, dtype=np.int32)
         self.free_top = np.array([capacity], np.int64)
-        self.hit_blocks = np.zeros((capacity, TILE, TILE, 3), np.float32)
+        self.hit_blocks = self._mapped_zeros("hit_blocks", (capacity, PART, PART, 3))
         self.hit_free_stack = np.arange(capacity - 1, -1, -1, dtype=np.int32)
         self.hit_free_top = np.array([capacity], np.int64)
         self.tables = np.full((n_maps, 0, 0), -1, np.int32)
@@ -450,46 +489,68 @@ class TiledMaps:
             self.hit_free_stack = _grown_stack(self.hit_free_stack, free, old, new)
             self.hit_free_top[0] = free + new - old
 
+    def _mapped_zeros(self, name: str, shape: tuple[int, ...]) -> np.ndarray:
+        """A zeroed float32 pool ``name`` in private anonymous memory of its own (see :meth:`_grow`)."""
+        self._mapped[name] = mmap.mmap(-1, max(int(np.prod(shape)) * 4, 1), flags=mmap.MAP_PRIVATE)
+        return np.frombuffer(self._mapped[name], np.float32, int(np.prod(shape))).reshape(shape)
+
     def _grow(self, name: str, length: int) -> None:
-        """Give the pool array ``name`` ``length`` rows, the new ones zero: resized in place
-        when nothing else refers to it (the allocator moves its pages, so the old rows are never
-        held twice, as a copy would), else copied."""
+        """Give the pool array ``name`` ``length`` rows, the new ones zero, in place when nothing else
+        refers to it (so the old rows are never held twice, as a copy would), else copied. The
+        tiles and hit blocks are grown by remapping their memory: their new rows take none until
+        written (a resized array's new rows are zeroed, and so held, at once)."""
         array = self.__dict__.pop(name)  # so that this is its only reference
-        try:
-            array.resize((length, *array.shape[1:]))
-        except ValueError:
-            array = np.concatenate([array, np.zeros((length - len(array), *array.shape[1:]), array.dtype)])
+        shape = (length, *array.shape[1:])
+        if name in self._mapped:
+            memory = self._mapped[name]
+            try:
+                del array
+                memory.resize(int(np.prod(shape)) * 4)
+                array = np.frombuffer(memory, np.float32, int(np.prod(shape))).reshape(shape)
+            except BufferError:
+                old = np.frombuffer(memory, np.float32).reshape(-1, *shape[1:])
+                array = self._mapped_zeros(name, shape)
+                array[:len(old)] = old
+        else:
+            try:
+                array.resize(shape)
+            except ValueError:
+                array = np.concatenate([array, np.zeros((length - len(array), *shape[1:]), array.dtype)])
         setattr(self, name, array)
 
     def to_grid(self, index: int) -> OccupancyGrid:
         """Map ``index`` as a dense :class:`OccupancyGrid` (cropped to its known tiles)."""
         grid = OccupancyGrid(self.resolution, self.origin, model=self.model)
-        dense = self._dense(index, self.lo)
+        dense = self._dense(index, lambda t: self.lo[t])
         if dense is not None:
             grid.data, grid.origin = dense
         return grid
 
     def hit_sums(self, index: int) -> np.ndarray:
         """Map ``index``'s per-cell hit sums ``(ny, nx, 3)`` (``HIT_*``), aligned with :meth:`to_grid`."""
-        dense = self._dense(index, self.hit_blocks, self.hit_of)
+        dense = self._dense(index, self.tile_hit_sums)
         return np.zeros((0, 0, 3), np.float32) if dense is None else dense[0]
 
-    def _dense(self, index: int, pool: np.ndarray,
-               block_of: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray] | None:
-        """``pool``'s blocks of map ``index``'s tiles (tile ``t``'s is ``block_of[t]``, zeros if
-        negative; ``t`` itself without ``block_of``) as one array over its known tiles, and
+    def tile_hit_sums(self, t: int) -> np.ndarray:
+        """Tile ``t``'s hit sums ``(TILE, TILE, 3)``: its parts' blocks, zeros for parts without one."""
+        sums = np.zeros((TILE, TILE, 3), np.float32)
+        for part in np.flatnonzero(self.hit_of[t] >= 0):
+            sums[part_cells(part)] = self.hit_blocks[self.hit_of[t, part]]
+        return sums
+
+    def _dense(self, index: int, tile_values) -> tuple[np.ndarray, np.ndarray] | None:
+        """``tile_values(t)`` of map ``index``'s tiles ``t`` as one array over its known tiles, and
         that array's origin."""
         table = self.tables[index]
         used = np.argwhere(table >= 0)
         if len(used) == 0:
             return None
         (ty0, tx0), (ty1, tx1) = used.min(axis=0), used.max(axis=0)
-        data = np.zeros(((ty1 - ty0 + 1) * TILE, (tx1 - tx0 + 1) * TILE, *pool.shape[3:]), pool.dtype)
+        first = tile_values(table[tuple(used[0])])
+        data = np.zeros(((ty1 - ty0 + 1) * TILE, (tx1 - tx0 + 1) * TILE, *first.shape[2:]), first.dtype)
         for ty, tx in used:
-            block = table[ty, tx] if block_of is None else block_of[table[ty, tx]]
-            if block >= 0:
-                y, x = (ty - ty0) * TILE, (tx - tx0) * TILE
-                data[y:y + TILE, x:x + TILE] = pool[block]
+            y, x = (ty - ty0) * TILE, (tx - tx0) * TILE
+            data[y:y + TILE, x:x + TILE] = tile_values(table[ty, tx])
         return data, self.origin + np.array([tx0, ty0]) * self.tile_size
 
     def seed_from_grid(self, grid: OccupancyGrid, hit_sums: np.ndarray | None = None) -> None:
@@ -508,7 +569,8 @@ class TiledMaps:
         ny, nx = grid.shape
         t_lo = offset // TILE
         t_hi = (offset + np.array([nx, ny]) - 1) // TILE
-        self._reserve((t_hi[0] - t_lo[0] + 1) * (t_hi[1] - t_lo[1] + 1))
+        tiles = (t_hi[0] - t_lo[0] + 1) * (t_hi[1] - t_lo[1] + 1)
+        self._reserve(tiles, tiles * PARTS)
         occupied_lo = self.model.l_occ
         for ty in range(t_lo[1], t_hi[1] + 1):
             for tx in range(t_lo[0], t_hi[0] + 1):
@@ -528,8 +590,10 @@ class TiledMaps:
                     occ = block > occupied_lo * 0.5
                     hits[occ] = (0.5 * self.resolution, 0.5 * self.resolution, 1.0)
                 self.hit_of[t] = -1
-                if hits[..., HIT_N].any():
-                    self.hit_of[t] = _take(self.hit_free_stack, self.hit_free_top)
-                    self.hit_blocks[self.hit_of[t]] = hits
+                for part in range(PARTS):
+                    sums = hits[part_cells(part)]
+                    if sums[..., HIT_N].any():
+                        self.hit_of[t, part] = _take(self.hit_free_stack, self.hit_free_top)
+                        self.hit_blocks[self.hit_of[t, part]] = sums
                 self.refs[t] = self.n_maps
                 self.tables[:, ty, tx] = t
