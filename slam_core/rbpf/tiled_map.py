@@ -507,7 +507,7 @@ class TiledMaps:
                 del array
                 memory.resize(int(np.prod(shape)) * 4)
                 array = np.frombuffer(memory, np.float32, int(np.prod(shape))).reshape(shape)
-            except BufferError:
+            except (BufferError, SystemError):  # another view of it; or no mremap (not Linux)
                 old = np.frombuffer(memory, np.float32).reshape(-1, *shape[1:])
                 array = self._mapped_zeros(name, shape)
                 array[:len(old)] = old
