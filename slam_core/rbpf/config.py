@@ -108,6 +108,9 @@ class RBPFConfig:
     linear_update: float = 0.2
     angular_update: float = 0.1
     resample_threshold: float = 0.5
+    calibration_window: int = 200
+    calibration_min_samples: int = 20
+    calibration_min_scale: float = 0.05
     motion: OdometryMotionModel = field(default_factory=OdometryMotionModel)
     sensor: SensorModel = field(default_factory=SensorModel)
     matcher: MatcherParams = field(default_factory=MatcherParams)

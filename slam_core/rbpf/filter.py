@@ -22,7 +22,7 @@ particle's trajectory by :mod:`slam_core.graph.loop_closure`.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -33,6 +33,7 @@ from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.rbpf.config import RBPFConfig
 from slam_core.rbpf.correlative import likelihood_window, search
 from slam_core.rbpf.laser_mount import LaserMount
+from slam_core.rbpf.odometry_calibration import OdometryCalibration
 from slam_core.rbpf.proposal import improved_proposal, match_starts
 from slam_core.rbpf.scan_matcher import P_OCCUPIED, beam_rows, match, pose_likelihood
 from slam_core.rbpf.tiled_map import TiledMaps
@@ -57,6 +58,7 @@ class RBPFStats:
     take_back_searches: int = 0
     forced_updates: int = 0
     last_neff: float = 0.0
+    odometry: dict = field(default_factory=dict)
 
     def as_dict(self) -> dict:
         return dict(self.__dict__)
@@ -89,6 +91,9 @@ class RBPFSlam:
         self._last_odom: np.ndarray | None = None
         self._last_fit = 0.0
         self._params = self.config.matcher.packed()
+        c = self.config
+        self.calibration = OdometryCalibration(c.motion.alphas, c.calibration_window,
+                                               c.calibration_min_samples, c.calibration_min_scale)
 
     # -- the estimator interface --------------------------------------------------
 
@@ -159,7 +164,10 @@ class RBPFSlam:
         beams = self._matching_beams(scan, m.max_range, m.max_beams)
         motion = np.array(decompose(*odom0, *odom1))
         predicted = compose(self.poses, relative(odom0, odom1))
-        error = self._odometry_error(predicted, motion, scan, beams)
+        error, trusted = self._odometry_error(predicted, motion, scan, beams)
+        if trusted:
+            self.calibration.observe(motion, error)
+            self.stats.odometry = self.calibration.summary()
         starts = compose(predicted, error)
         floor = m.motion_floor()
         if forced:
@@ -171,8 +179,9 @@ class RBPFSlam:
         matched = np.empty(n, np.bool_)
         improved_proposal(self.maps.tables, self.maps.lo, self.maps.hits, self.maps.origin[0],
                           self.maps.origin[1], self.maps.resolution, self.poses, starts, motion,
-                          c.motion.alphas, beams, self._params, m.iterations, m.wide_iterations,
-                          max(1.0, m.min_matched * len(beams)), floor, noise,
+                          c.motion.alphas, self.calibration.corrected(motion),
+                          self.calibration.fallback_alphas(), beams, self._params, m.iterations,
+                          m.wide_iterations, max(1.0, m.min_matched * len(beams)), floor, noise,
                           new_poses, log_eta, matched)
         self.poses = new_poses
         log_eta = log_eta / m.gain
@@ -225,8 +234,9 @@ class RBPFSlam:
         return fit < self._last_fit - m.mismatch_drop
 
     def _odometry_error(self, predicted: np.ndarray, motion: np.ndarray, scan: Scan,
-                        beams: np.ndarray) -> np.ndarray:
-        """The odometry's error (robot frame), found on the leading particle's map.
+                        beams: np.ndarray) -> tuple[np.ndarray, bool]:
+        """The odometry's error (robot frame), found on the leading particle's map, and whether
+        the match it comes from fits well (at least ``good_match`` of the beams).
 
         The leading particle is matched finely from its prediction turned to a few
         headings, and keeps the likeliest; when too few beams match after a large
@@ -251,8 +261,9 @@ class RBPFSlam:
         if matched < m.good_match * len(beams):
             best, best_ll, matched = self._take_back(fine, lead, reported, beams, best, best_ll, matched)
         points = self._matching_beams(scan, m.coarse_range, m.coarse_beams)[:, :2]
-        if matched >= m.good_match * len(beams) or len(points) == 0:
-            return relative(pred, best)
+        trusted = matched >= m.good_match * len(beams)
+        if trusted or len(points) == 0:
+            return relative(pred, best), trusted
         self.stats.coarse_searches += 1
         turn = abs(motion[0]) + abs(motion[2])
         angular = m.coarse_angular + 0.5 * turn
@@ -268,8 +279,8 @@ class RBPFSlam:
         x, y, th, _, _ = match(*fine, sx, sy, sth, beams, self._params, m.iterations, m.wide_iterations)
         ll, fitting = pose_likelihood(*fine, x, y, th, beams, self._params)
         if ll > best_ll and fitting >= m.good_match * len(beams):
-            best = np.array([x, y, th])
-        return relative(pred, best)
+            return relative(pred, np.array([x, y, th])), True
+        return relative(pred, best), False
 
     def _take_back(self, fine: tuple, lead: int, reported: np.ndarray, beams: np.ndarray,
                    best: np.ndarray, best_ll: float, matched: int):

@@ -21,7 +21,8 @@ that Gaussian; the matcher's own information matrix gives it directly, shaped
 by the scene (long along a corridor, tight across it), at no extra cost.
 
 When too few beams match (an unmapped area, a failed match) the particle is
-drawn from the motion model instead and weighted by its observation likelihood.
+drawn from the motion model instead, as the matches so far calibrated it, and
+weighted by its observation likelihood.
 """
 
 from __future__ import annotations
@@ -91,12 +92,14 @@ def gaussian_product(x_star, info, x_pred, motion_cov):
 
 @njit(parallel=True)
 def improved_proposal(tables, lo, hits, origin_x, origin_y, resolution, prev, starts, motion, alphas,
-                      beams, params, iterations, wide_iterations, min_matched, motion_floor, noise,
-                      out_pose, out_logw, out_matched):
+                      fallback_motion, fallback_alphas, beams, params, iterations, wide_iterations,
+                      min_matched, motion_floor, noise, out_pose, out_logw, out_matched):
     """Draw every particle's new pose; fills ``out_pose``, ``out_logw`` (log eta), ``out_matched``.
 
     ``starts`` are the poses the matching starts from, ``motion`` is
-    ``(rot1, trans, rot2)`` of the odometry, ``noise`` standard normal ``(n, 3)``.
+    ``(rot1, trans, rot2)`` of the odometry, ``noise`` standard normal ``(n, 3)``. A particle
+    that does not match is drawn around ``fallback_motion`` with the noise of ``fallback_alphas``
+    (the odometry as calibrated, :mod:`slam_core.rbpf.odometry_calibration`).
     """
     rot1, trans, rot2 = motion[0], motion[1], motion[2]
     for p in prange(prev.shape[0]):
@@ -106,9 +109,11 @@ def improved_proposal(tables, lo, hits, origin_x, origin_y, resolution, prev, st
                                            starts[p, 0], starts[p, 1], starts[p, 2], beams, params,
                                            iterations, wide_iterations)
         if matched < min_matched:
-            s1, st, s2 = noise_stds(rot1, trans, rot2, alphas[0], alphas[1], alphas[2], alphas[3])
-            x, y, th = apply_motion(x0, y0, th0, rot1 + s1 * noise[p, 0], trans + st * noise[p, 1],
-                                    rot2 + s2 * noise[p, 2])
+            f1, ft, f2 = fallback_motion[0], fallback_motion[1], fallback_motion[2]
+            s1, st, s2 = noise_stds(f1, ft, f2, fallback_alphas[0], fallback_alphas[1], fallback_alphas[2],
+                                    fallback_alphas[3])
+            x, y, th = apply_motion(x0, y0, th0, f1 + s1 * noise[p, 0], ft + st * noise[p, 1],
+                                    f2 + s2 * noise[p, 2])
             ll, _ = pose_likelihood(table, lo, hits, origin_x, origin_y, resolution, x, y, th, beams,
                                     params)
             out_pose[p, 0] = x

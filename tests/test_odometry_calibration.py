@@ -1,0 +1,72 @@
+"""The odometry's systematic error and noise, learned from matched updates."""
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from slam_core.motion_model import OdometryMotionModel, noise_stds
+from slam_core.rbpf.odometry_calibration import OdometryCalibration
+
+ALPHAS = OdometryMotionModel().alphas
+
+
+def observed(drift, turn_scale, trans_scale, noise_rot, noise_trans, n=200, seed=0, outliers=0):
+    """A calibration fed ``n`` errors of an odometry with the given systematic errors and noise."""
+    rng = np.random.default_rng(seed)
+    cal = OdometryCalibration(ALPHAS, window=n, min_samples=20, min_scale=0.01)
+    for k in range(n):
+        rot1, trans, rot2 = rng.uniform(-0.3, 0.3), rng.uniform(0.1, 1.0), rng.uniform(-0.3, 0.3)
+        heading = drift * trans + turn_scale * (rot1 + rot2) + rng.normal(0, noise_rot)
+        along = trans_scale * trans + rng.normal(0, noise_trans)
+        if k < outliers:  # a stall or a slip: far off
+            heading, along = heading + rng.choice([-1, 1]) * 0.5, along - 0.3
+        cal.observe(np.array([rot1, trans, rot2]), np.array([along, 0.0, heading]))
+    return cal
+
+
+@settings(max_examples=25, deadline=None)
+@given(drift=st.floats(-0.05, 0.05), turn_scale=st.floats(-0.05, 0.05), trans_scale=st.floats(-0.05, 0.05),
+       seed=st.integers(0, 1000))
+def test_recovers_the_systematic_errors(drift, turn_scale, trans_scale, seed):
+    cal = observed(drift, turn_scale, trans_scale, noise_rot=0.002, noise_trans=0.002, seed=seed)
+    np.testing.assert_allclose(cal.bias(), [drift, turn_scale, trans_scale], atol=0.003)
+
+
+@settings(max_examples=25, deadline=None)
+@given(noise_rot=st.floats(0.001, 0.02), seed=st.integers(0, 1000))
+def test_noise_scale_is_the_measured_spread_in_model_units(noise_rot, seed):
+    cal = observed(0.02, 0.0, 0.01, noise_rot=noise_rot, noise_trans=0.005, seed=seed)
+    # the model's heading std over this mix of motions, for reference
+    rng = np.random.default_rng(seed)
+    model = np.median([np.hypot(*np.array(noise_stds(r1, t, r2, *ALPHAS))[[0, 2]])
+                       for r1, t, r2 in zip(rng.uniform(-0.3, 0.3, 200), rng.uniform(0.1, 1.0, 200),
+                                            rng.uniform(-0.3, 0.3, 200), strict=True)])
+    rotation, _translation = cal.scales()
+    assert 0.4 * noise_rot / model < rotation < 2.5 * noise_rot / model
+    assert cal.scales().max() <= 1.0
+
+
+def test_stalls_and_slips_do_not_move_the_calibration():
+    clean = observed(0.03, 0.02, 0.02, 0.003, 0.003, seed=4)
+    faulty = observed(0.03, 0.02, 0.02, 0.003, 0.003, seed=4, outliers=20)
+    np.testing.assert_allclose(faulty.bias(), clean.bias(), atol=0.003)
+    assert faulty.scales()[0] < 1.5 * clean.scales()[0]
+
+
+def test_an_odometry_noisier_than_the_model_keeps_the_model():
+    cal = observed(0.0, 0.0, 0.0, noise_rot=1.0, noise_trans=1.0)
+    np.testing.assert_array_equal(cal.scales(), [1.0, 1.0])
+    np.testing.assert_allclose(cal.fallback_alphas(), ALPHAS)
+
+
+def test_nothing_changes_before_enough_errors_are_measured():
+    cal = observed(0.05, 0.05, 0.05, 0.001, 0.001, n=19)
+    motion = np.array([0.1, 0.5, -0.2])
+    np.testing.assert_array_equal(cal.corrected(motion), motion)
+    np.testing.assert_array_equal(cal.fallback_alphas(), ALPHAS)
+
+
+def test_the_corrected_motion_takes_the_drift_out():
+    cal = observed(0.04, 0.0, 0.02, 0.0005, 0.0005)
+    rot1, trans, rot2 = cal.corrected(np.array([0.0, 1.0, 0.0]))
+    assert abs(trans - 1.02) < 0.002 and abs(rot2 - 0.04) < 0.002 and rot1 == 0.0
