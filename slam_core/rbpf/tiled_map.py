@@ -91,6 +91,25 @@ def _demand(tables, refs, hit_of, origin_x, origin_y, tile_size, poses, reach, b
 
 
 @njit
+def _copy_tile(lo, new, t):
+    """Tile ``new``'s log-odds become tile ``t``'s (0 for ``t < 0``). Element by element, as
+    :func:`_copy_block`: an array assigned to a slice compiles numba's shape-mismatch message
+    (string formatting), seconds of a cold start."""
+    for cy in range(TILE):
+        for cx in range(TILE):
+            lo[new, cy, cx] = 0.0 if t < 0 else lo[t, cy, cx]
+
+
+@njit
+def _copy_block(hit_blocks, new, h):
+    """Hit block ``new`` becomes a copy of block ``h``."""
+    for hy in range(PART):
+        for hx in range(PART):
+            for k in range(3):
+                hit_blocks[new, hy, hx, k] = hit_blocks[h, hy, hx, k]
+
+
+@njit
 def _integrate_map(p, tables, refs, lo, hit_of, hit_blocks, stack, bottom, top, hit_stack, hit_bottom,
                    hit_top, source, base, start, origin_x, origin_y, resolution, poses, angles, ranges,
                    range_min, range_max, usable_range, no_return_range, l_free, l_occ, l_min, l_max):
@@ -138,16 +157,13 @@ def _integrate_map(p, tables, refs, lo, hit_of, hit_blocks, stack, bottom, top, 
                 new = stack[top[p]]
                 source[top[p] - base] = t
                 refs[new] = 1
-                if t < 0:
-                    lo[new] = 0.0
-                else:
-                    lo[new] = lo[t]
+                _copy_tile(lo, new, t)
                 for j in range(PARTS):
                     hit_of[new, j] = -1
                     if t >= 0 and hit_of[t, j] >= 0:
                         hit_top[p] -= 1
                         h = hit_stack[hit_top[p]]
-                        hit_blocks[h] = hit_blocks[hit_of[t, j]]
+                        _copy_block(hit_blocks, h, hit_of[t, j])
                         hit_of[new, j] = h
                 tables[p, ty, tx] = new
                 t = new
@@ -278,12 +294,18 @@ def _retable(tables, refs, free_stack, free_top, hit_of, hit_free_stack, hit_fre
     """Replace the maps by copies of ``parents``, keeping reference counts and the free stacks. Only
     the parents' tables are copied (each once); every tile in them gains its children's references
     before any map's old tiles are released."""
-    kept = np.unique(parents)
     row = np.full(tables.shape[0], -1, np.int64)
-    copies = np.empty((kept.shape[0], tables.shape[1], tables.shape[2]), tables.dtype)
-    for i in range(kept.shape[0]):
-        copies[i] = tables[kept[i]]
-        row[kept[i]] = i
+    kept = 0
+    for p in range(parents.shape[0]):
+        if row[parents[p]] < 0:
+            row[parents[p]] = kept
+            kept += 1
+    copies = np.empty((kept, tables.shape[1], tables.shape[2]), tables.dtype)
+    for p in range(tables.shape[0]):
+        if row[p] >= 0:
+            for ty in range(tables.shape[1]):
+                for tx in range(tables.shape[2]):
+                    copies[row[p], ty, tx] = tables[p, ty, tx]
     for p in range(tables.shape[0]):
         for ty in range(tables.shape[1]):
             for tx in range(tables.shape[2]):
