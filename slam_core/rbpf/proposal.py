@@ -27,10 +27,9 @@ drawn from the motion model instead and weighted by its observation likelihood.
 from __future__ import annotations
 
 import numpy as np
-from numba import prange
 
 from slam_core.geometry import wrap_scalar
-from slam_core.jit import njit
+from slam_core.jit import njit, split
 from slam_core.motion_model import apply_motion, noise_stds
 from slam_core.rbpf.scan_matcher import cholesky3, match, pose_likelihood
 
@@ -89,17 +88,27 @@ def gaussian_product(x_star, info, x_pred, motion_cov):
     return mean, cov, log_eta
 
 
-@njit(parallel=True)
 def improved_proposal(tables, lo, hits, origin_x, origin_y, resolution, prev, starts, motion, alphas,
                       beams, params, iterations, wide_iterations, min_matched, motion_floor, noise,
                       out_pose, out_logw, out_matched):
     """Draw every particle's new pose; fills ``out_pose``, ``out_logw`` (log eta), ``out_matched``.
 
     ``starts`` are the poses the matching starts from, ``motion`` is
-    ``(rot1, trans, rot2)`` of the odometry, ``noise`` standard normal ``(n, 3)``.
+    ``(rot1, trans, rot2)`` of the odometry, ``noise`` standard normal ``(n, 3)``. Particles
+    are split over threads (:func:`slam_core.jit.split`).
     """
+    split(_propose, prev.shape[0], tables, lo, hits, origin_x, origin_y, resolution, prev, starts, motion,
+          alphas, beams, params, iterations, wide_iterations, min_matched, motion_floor, noise, out_pose,
+          out_logw, out_matched)
+
+
+@njit
+def _propose(first, stop, tables, lo, hits, origin_x, origin_y, resolution, prev, starts, motion, alphas,
+             beams, params, iterations, wide_iterations, min_matched, motion_floor, noise, out_pose, out_logw,
+             out_matched):
+    """:func:`improved_proposal` for particles ``first`` to ``stop - 1``."""
     rot1, trans, rot2 = motion[0], motion[1], motion[2]
-    for p in prange(prev.shape[0]):
+    for p in range(first, stop):
         table = tables[p]
         x0, y0, th0 = prev[p, 0], prev[p, 1], prev[p, 2]
         mx, my, mth, info, matched = match(table, lo, hits, origin_x, origin_y, resolution,
@@ -131,12 +140,19 @@ def improved_proposal(tables, lo, hits, origin_x, origin_y, resolution, prev, st
         out_matched[p] = True
 
 
-@njit(parallel=True)
 def match_starts(table, lo, hits, origin_x, origin_y, resolution, starts, beams, params, iterations,
                  wide_iterations, out_pose, out_ll, out_matched):
-    """Fine matches on one map from each of ``starts``, in parallel: fills ``out_pose``, ``out_ll``
-    (log-likelihood of the result) and ``out_matched`` (beams matched in the last pass)."""
-    for i in prange(starts.shape[0]):
+    """Fine matches on one map from each of ``starts``, split over threads: fills ``out_pose``,
+    ``out_ll`` (log-likelihood of the result) and ``out_matched`` (beams matched in the last pass)."""
+    split(_match_range, starts.shape[0], table, lo, hits, origin_x, origin_y, resolution, starts, beams,
+          params, iterations, wide_iterations, out_pose, out_ll, out_matched)
+
+
+@njit
+def _match_range(first, stop, table, lo, hits, origin_x, origin_y, resolution, starts, beams, params,
+                 iterations, wide_iterations, out_pose, out_ll, out_matched):
+    """:func:`match_starts` for starts ``first`` to ``stop - 1``."""
+    for i in range(first, stop):
         x, y, th, _, n = match(table, lo, hits, origin_x, origin_y, resolution, starts[i, 0], starts[i, 1],
                                starts[i, 2], beams, params, iterations, wide_iterations)
         ll, _ = pose_likelihood(table, lo, hits, origin_x, origin_y, resolution, x, y, th, beams, params)

@@ -26,9 +26,8 @@ from __future__ import annotations
 import mmap
 
 import numpy as np
-from numba import prange
 
-from slam_core.jit import njit
+from slam_core.jit import njit, split
 from slam_core.occupancy_grid import OccupancyGrid, SensorModel
 from slam_core.raycast import beam_endpoint, ray_buffer_size, trace_ray
 
@@ -187,13 +186,13 @@ def _integrate_map(p, tables, refs, lo, hit_of, hit_blocks, stack, bottom, top, 
     return -1, 0
 
 
-@njit(parallel=True)
-def _integrate(tables, refs, lo, hit_of, hit_blocks, stack, bottom, top, hit_stack, hit_bottom, hit_top,
-               source, base, start, origin_x, origin_y, resolution, poses, angles, ranges, range_min,
+@njit
+def _integrate(first, stop, tables, refs, lo, hit_of, hit_blocks, stack, bottom, top, hit_stack, hit_bottom,
+               hit_top, source, base, start, origin_x, origin_y, resolution, poses, angles, ranges, range_min,
                range_max, usable_range, no_return_range, l_free, l_occ, l_min, l_max):
-    """:func:`_integrate_map` for every map not yet done (``start[p, 0] >= 0``), maps in
-    parallel; ``start`` becomes where each stopped."""
-    for p in prange(poses.shape[0]):
+    """:func:`_integrate_map` for maps ``first`` to ``stop - 1`` not yet done (``start[p, 0] >= 0``);
+    ``start`` becomes where each stopped. Maps are split over threads (:func:`slam_core.jit.split`)."""
+    for p in range(first, stop):
         if start[p, 0] >= 0:
             b, k = _integrate_map(p, tables, refs, lo, hit_of, hit_blocks, stack, bottom, top, hit_stack,
                                   hit_bottom, hit_top, source, base, start, origin_x, origin_y, resolution,
@@ -462,10 +461,11 @@ class TiledMaps:
             hit_bottom, hit_ceiling, hit_base = _slices(int(self.hit_free_top[0]), blocks)
             top, hit_top = ceiling.copy(), hit_ceiling.copy()
             source = np.empty(int(self.free_top[0]) - base, np.int32)
-            _integrate(self.tables, self.refs, self.lo, self.hit_of, self.hit_blocks, self.free_stack, bottom,
-                       top, self.hit_free_stack, hit_bottom, hit_top, source, base, start, self.origin[0],
-                       self.origin[1], self.resolution, poses, scan.angles, scan.ranges, scan.range_min,
-                       scan.range_max, m.usable_range, m.no_return_range, m.l_free, m.l_occ, m.l_min, m.l_max)
+            split(_integrate, self.n_maps, self.tables, self.refs, self.lo, self.hit_of, self.hit_blocks,
+                  self.free_stack, bottom, top, self.hit_free_stack, hit_bottom, hit_top, source, base, start,
+                  self.origin[0], self.origin[1], self.resolution, poses, scan.angles, scan.ranges,
+                  scan.range_min, scan.range_max, m.usable_range, m.no_return_range, m.l_free, m.l_occ,
+                  m.l_min, m.l_max)
             _settle(self.refs, self.hit_of, source, self.free_stack, self.free_top, base, bottom, ceiling,
                     top, self.hit_free_stack, self.hit_free_top, hit_base, hit_bottom, hit_top)
             took[:, 0] += ceiling - top
