@@ -111,9 +111,9 @@ def _propose(first, stop, tables, lo, hits, origin_x, origin_y, resolution, prev
     for p in range(first, stop):
         table = tables[p]
         x0, y0, th0 = prev[p, 0], prev[p, 1], prev[p, 2]
-        mx, my, mth, info, matched = match(table, lo, hits, origin_x, origin_y, resolution,
-                                           starts[p, 0], starts[p, 1], starts[p, 2], beams, params,
-                                           iterations, wide_iterations)
+        mx, my, mth, info, matched, ll, _ = match(table, lo, hits, origin_x, origin_y, resolution,
+                                                  starts[p, 0], starts[p, 1], starts[p, 2], beams, params,
+                                                  iterations, wide_iterations)
         if matched < min_matched:
             s1, st, s2 = noise_stds(rot1, trans, rot2, alphas[0], alphas[1], alphas[2], alphas[3])
             x, y, th = apply_motion(x0, y0, th0, rot1 + s1 * noise[p, 0], trans + st * noise[p, 1],
@@ -126,8 +126,6 @@ def _propose(first, stop, tables, lo, hits, origin_x, origin_y, resolution, prev
             out_logw[p] = ll
             out_matched[p] = False
             continue
-        ll, _ = pose_likelihood(table, lo, hits, origin_x, origin_y, resolution, mx, my, mth, beams,
-                                params)
         px, py, pth = apply_motion(x0, y0, th0, rot1, trans, rot2)
         cov_m = motion_covariance(th0, rot1, trans, rot2, alphas, motion_floor)
         mean, cov, log_eta = gaussian_product(np.array([mx, my, mth]), info, np.array([px, py, pth]),
@@ -153,9 +151,8 @@ def _match_range(first, stop, table, lo, hits, origin_x, origin_y, resolution, s
                  iterations, wide_iterations, out_pose, out_ll, out_matched):
     """:func:`match_starts` for starts ``first`` to ``stop - 1``."""
     for i in range(first, stop):
-        x, y, th, _, n = match(table, lo, hits, origin_x, origin_y, resolution, starts[i, 0], starts[i, 1],
-                               starts[i, 2], beams, params, iterations, wide_iterations)
-        ll, _ = pose_likelihood(table, lo, hits, origin_x, origin_y, resolution, x, y, th, beams, params)
+        x, y, th, _, n, ll, _ = match(table, lo, hits, origin_x, origin_y, resolution, starts[i, 0],
+                                      starts[i, 1], starts[i, 2], beams, params, iterations, wide_iterations)
         out_pose[i, 0] = x
         out_pose[i, 1] = y
         out_pose[i, 2] = th
