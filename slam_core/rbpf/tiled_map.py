@@ -64,12 +64,14 @@ def _parts_with_hits(hit_of, t):
 
 
 @njit
-def _demand(tables, refs, hit_of, origin_x, origin_y, tile_size, poses, reach, beams, tiles, blocks):
-    """Upper bounds of the tiles and hit blocks a scan from each map's pose can take: the tiles
-    within ``reach`` that are not that map's own (missing or shared), and the parts there
-    without a hit block of their own, at most one per beam, plus the shared tiles' blocks."""
+def _demand(first, stop, tables, refs, hit_of, origin_x, origin_y, tile_size, poses, reach, beams, tiles,
+            blocks):
+    """Upper bounds of the tiles and hit blocks a scan from the pose of map ``first`` to
+    ``stop - 1`` can take: the tiles within ``reach`` that are not that map's own (missing or
+    shared), and the parts there without a hit block of their own, at most one per beam, plus
+    the shared tiles' blocks."""
     n_ty, n_tx = tables.shape[1], tables.shape[2]
-    for p in range(poses.shape[0]):  # serial: a parallel launch costs more than this loop
+    for p in range(first, stop):
         tx0 = max(int(np.floor((poses[p, 0] - reach - origin_x) / tile_size)) - 1, 0)
         ty0 = max(int(np.floor((poses[p, 1] - reach - origin_y) / tile_size)) - 1, 0)
         tx1 = min(int(np.floor((poses[p, 0] + reach - origin_x) / tile_size)) + 1, n_tx - 1)
@@ -449,8 +451,8 @@ class TiledMaps:
                              poses[:, 0].max() + reach, poses[:, 1].max() + reach)
         tiles = np.empty(self.n_maps, np.int64)
         blocks = np.empty(self.n_maps, np.int64)
-        _demand(self.tables, self.refs, self.hit_of, self.origin[0], self.origin[1], self.tile_size, poses,
-                reach, len(scan.angles), tiles, blocks)
+        split(_demand, self.n_maps, self.tables, self.refs, self.hit_of, self.origin[0], self.origin[1],
+              self.tile_size, poses, reach, len(scan.angles), tiles, blocks)
         bounds = tiles, blocks
         tiles = np.minimum(tiles, self._took[0] + MIN_SLICE)
         blocks = np.minimum(blocks, self._took[1] + MIN_SLICE)
