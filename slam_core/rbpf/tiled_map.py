@@ -64,12 +64,21 @@ def _parts_with_hits(hit_of, t):
 
 
 @njit
-def _demand(first, stop, tables, refs, hit_of, origin_x, origin_y, tile_size, poses, reach, beams, tiles,
+def _count_held(refs, hit_of, held):
+    """``held[t]``: the parts of tile ``t`` with a hit block, for every tile in use."""
+    for t in range(refs.shape[0]):
+        if refs[t] > 0:
+            held[t] = _parts_with_hits(hit_of, t)
+
+
+@njit
+def _demand(first, stop, tables, refs, held, origin_x, origin_y, tile_size, poses, reach, beams, tiles,
             blocks):
     """Upper bounds of the tiles and hit blocks a scan from the pose of map ``first`` to
     ``stop - 1`` can take: the tiles within ``reach`` that are not that map's own (missing or
     shared), and the parts there without a hit block of their own, at most one per beam, plus
-    the shared tiles' blocks."""
+    the shared tiles' blocks. ``held`` as :func:`_count_held` gives it (the maps share most
+    tiles: counted once per tile rather than once per map)."""
     n_ty, n_tx = tables.shape[1], tables.shape[2]
     for p in range(first, stop):
         tx0 = max(int(np.floor((poses[p, 0] - reach - origin_x) / tile_size)) - 1, 0)
@@ -82,11 +91,11 @@ def _demand(first, stop, tables, refs, hit_of, origin_x, origin_y, tile_size, po
         for ty in range(ty0, ty1 + 1):
             for tx in range(tx0, tx1 + 1):
                 t = tables[p, ty, tx]
-                held = 0 if t < 0 else _parts_with_hits(hit_of, t)
-                without_hits += PARTS - held
+                n = 0 if t < 0 else held[t]
+                without_hits += PARTS - n
                 if t < 0 or refs[t] != 1:
                     foreign += 1
-                    foreign_hits += held
+                    foreign_hits += n
         tiles[p] = foreign
         blocks[p] = foreign_hits + min(without_hits, beams)
 
@@ -451,7 +460,9 @@ class TiledMaps:
                              poses[:, 0].max() + reach, poses[:, 1].max() + reach)
         tiles = np.empty(self.n_maps, np.int64)
         blocks = np.empty(self.n_maps, np.int64)
-        split(_demand, self.n_maps, self.tables, self.refs, self.hit_of, self.origin[0], self.origin[1],
+        held = np.empty(len(self.refs), np.int64)
+        _count_held(self.refs, self.hit_of, held)
+        split(_demand, self.n_maps, self.tables, self.refs, held, self.origin[0], self.origin[1],
               self.tile_size, poses, reach, len(scan.angles), tiles, blocks)
         bounds = tiles, blocks
         tiles = np.minimum(tiles, self._took[0] + MIN_SLICE)
