@@ -11,11 +11,17 @@ spinning worker took a core from the main thread and from other processes (see
 ``benchmarks/RESULTS.md``, "where intel's time goes"). Unless the environment says
 otherwise, workers sleep at once (``OMP_WAIT_POLICY=PASSIVE``, read
 when numba first loads its OpenMP pool, after this module is imported).
+
+The particle filter's per-particle kernels are compiled serial and split over threads by
+:func:`split`: a ``parallel=True`` kernel links and optimises a copy of everything it calls two
+or three times more (the parallel body, its wrapper, the caller), which made the three filter
+kernels ~8 s of a cold compile (``benchmarks/RESULTS.md``, "cold compile").
 """
 
 from __future__ import annotations
 
 import os
+from concurrent.futures import ThreadPoolExecutor
 
 import numba
 
@@ -31,3 +37,29 @@ def njit(*args, **kwargs):
     if args and callable(args[0]):
         return numba.njit(**options)(args[0])
     return numba.njit(*args, **options)
+
+
+_pool: ThreadPoolExecutor | None = None
+
+
+def _forget_pool() -> None:
+    global _pool
+    _pool = None  # a forked child has none of its parent's threads
+
+
+os.register_at_fork(after_in_child=_forget_pool)
+
+
+def split(kernel, n: int, *args) -> None:
+    """Run ``kernel(first, stop, *args)`` over ``range(n)`` in equal contiguous chunks, one per
+    thread (numba's thread count), the first chunk on the calling thread. The kernel must release
+    the GIL (``nogil``) and write only the outputs of its own items."""
+    global _pool
+    threads = max(min(numba.config.NUMBA_NUM_THREADS, n), 1)
+    bounds = [n * i // threads for i in range(threads + 1)]
+    if threads > 1 and _pool is None:
+        _pool = ThreadPoolExecutor(numba.config.NUMBA_NUM_THREADS - 1, thread_name_prefix="split")
+    others = [_pool.submit(kernel, bounds[i], bounds[i + 1], *args) for i in range(1, threads)]
+    kernel(0, bounds[1], *args)
+    for job in others:
+        job.result()

@@ -1,4 +1,5 @@
-"""The compiled kernels' shared settings: OpenMP workers that sleep when idle unless told otherwise."""
+"""The compiled kernels' shared settings: OpenMP workers that sleep when idle unless told otherwise;
+work split over threads."""
 
 import os
 import subprocess
@@ -15,3 +16,28 @@ def test_openmp_workers_sleep_unless_the_environment_says_otherwise(given, expec
     code = "import os, slam_core.jit; print(os.environ['OMP_WAIT_POLICY'])"
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
     assert out.stdout.strip() == expected
+
+
+@pytest.mark.parametrize("n", [0, 1, 2, 7, 30])
+def test_split_covers_every_item_once_in_contiguous_chunks(n):
+    from slam_core.jit import split
+
+    seen = []
+
+    def kernel(first, stop, out):
+        out.append((first, stop))
+
+    split(kernel, n, seen)
+    chunks = sorted(seen)
+    assert [i for first, stop in chunks for i in range(first, stop)] == list(range(n))
+
+
+def test_split_raises_what_a_chunk_raised():
+    from slam_core.jit import split
+
+    def kernel(first, stop):
+        if first > 0:
+            raise ValueError("second chunk")
+
+    with pytest.raises(ValueError, match="second chunk"):
+        split(kernel, 10)

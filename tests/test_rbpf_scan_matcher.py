@@ -54,7 +54,7 @@ def test_a_known_shift_is_recovered(room_map, shift):
     params = MatcherParams().packed()
     beams = beams_of(room_scan(TRUE_POSE, 180))
     start = TRUE_POSE + np.array(shift)
-    x, y, th, info, matched = match(*args_of(room_map), *start, beams, params, 15, 5)
+    x, y, th, info, matched, _, _ = match(*args_of(room_map), *start, beams, params, 15, 5)
     err = relative(TRUE_POSE, [x, y, th])
     assert np.hypot(err[0], err[1]) < 0.003
     assert abs(err[2]) < np.radians(0.1)
@@ -82,7 +82,7 @@ def test_beams_into_unknown_space_do_not_match():
     ll, matched = pose_likelihood(*args_of(maps), *TRUE_POSE, beams, params)
     assert matched == 0
     assert ll == pytest.approx(-len(beams) * params[1] / (2 * params[0]))
-    *_, info, matched = match(*args_of(maps), *TRUE_POSE, beams, params, 5, 2)
+    _, _, _, info, matched, _, _ = match(*args_of(maps), *TRUE_POSE, beams, params, 5, 2)
     assert matched == 0 and not info.any()
 
 
@@ -129,7 +129,7 @@ def test_parallel_matches_from_several_starts_equal_the_serial_ones(room_map):
     poses, lls, counts = np.empty((7, 3)), np.empty(7), np.empty(7, np.int64)
     match_starts(*args_of(room_map), starts, beams, params, 10, 3, poses, lls, counts)
     for i, start in enumerate(starts):
-        x, y, th, _, n = match(*args_of(room_map), *start, beams, params, 10, 3)
+        x, y, th, _, n, _, _ = match(*args_of(room_map), *start, beams, params, 10, 3)
         assert (poses[i].tolist(), counts[i]) == ([x, y, th], n)
         assert lls[i] == pose_likelihood(*args_of(room_map), x, y, th, beams, params)[0]
     assert len(np.unique(poses[:, 0])) > 1  # the starts did lead to different results
@@ -177,10 +177,11 @@ def test_the_matcher_remembering_cells_gives_exactly_the_plain_result(room_map, 
     rng = np.random.default_rng(seed)
     beams = beams_of(room_scan(TRUE_POSE, 180))
     start = TRUE_POSE + rng.normal(0, [0.06, 0.06, 0.05])
-    x, y, th, info, matched = match(*args_of(room_map), *start, beams, params, 10, 3)
+    x, y, th, info, matched, ll, fitting = match(*args_of(room_map), *start, beams, params, 10, 3)
     rx, ry, rth, rinfo, rmatched = reference_match(args_of(room_map), *start, beams, params, 10, 3)
     assert (x, y, th, matched) == (rx, ry, rth, rmatched)
     np.testing.assert_array_equal(info, rinfo)
+    assert (ll, fitting) == pose_likelihood(*args_of(room_map), x, y, th, beams, params)
     assert (x, y, th) != tuple(start)
 
 

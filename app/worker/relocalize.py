@@ -30,7 +30,7 @@ from slam_core.rbpf.config import RBPFConfig
 from slam_core.rbpf.correlative import bounded_search, likelihood_window, max_pool
 from slam_core.rbpf.hit_render import SparseHits
 from slam_core.rbpf.laser_mount import LaserMount
-from slam_core.rbpf.scan_matcher import P_OCCUPIED, beam_rows, match, pose_likelihood
+from slam_core.rbpf.scan_matcher import P_OCCUPIED, beam_rows, match
 from slam_core.rbpf.tiled_map import TiledMaps
 from slam_core.scan import Scan
 
@@ -142,7 +142,6 @@ class Relocalizer:
     def _refine(self, start: np.ndarray, beams: np.ndarray) -> tuple[np.ndarray, float]:
         m, matcher = self.maps, self.config.matcher
         fine = (m.tables[0], m.lo, m.hits, m.origin[0], m.origin[1], m.resolution)
-        x, y, th, _, _ = match(*fine, start[0], start[1], start[2], beams, self.params, matcher.iterations,
-                               matcher.wide_iterations)
-        _, matched = pose_likelihood(*fine, x, y, th, beams, self.params)
+        x, y, th, _, _, _, matched = match(*fine, start[0], start[1], start[2], beams, self.params,
+                                           matcher.iterations, matcher.wide_iterations)
         return np.array([x, y, wrap_angle(th)]), matched / len(beams)

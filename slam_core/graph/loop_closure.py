@@ -48,7 +48,7 @@ from slam_core.occupancy_grid import SensorModel
 from slam_core.rbpf.config import MatcherParams
 from slam_core.rbpf.correlative import bounded_search, likelihood_window, max_pool
 from slam_core.rbpf.laser_mount import LaserMount
-from slam_core.rbpf.scan_matcher import P_OCCUPIED, beam_rows, match, pose_likelihood
+from slam_core.rbpf.scan_matcher import P_OCCUPIED, beam_rows, match
 from slam_core.rbpf.tiled_map import TiledMaps
 from slam_core.scan import Scan
 
@@ -222,8 +222,8 @@ def _match(sub: Submap, start: np.ndarray, beams: np.ndarray, points: np.ndarray
     if rim:
         return None
     fine = sub.fine()
-    x, y, th, info, _ = match(*fine, sx, sy, sth, beams, params, matcher.iterations, matcher.wide_iterations)
-    _, fitting = pose_likelihood(*fine, x, y, th, beams, params)
+    x, y, th, info, _, _, fitting = match(*fine, sx, sy, sth, beams, params, matcher.iterations,
+                                          matcher.wide_iterations)
     return np.array([x, y, th]), info, fitting / max(len(beams), 1)
 
 
@@ -373,8 +373,8 @@ def scan_poses(submaps: Submaps, update_poses: np.ndarray, update_of_scan: np.nd
             if len(beams) == 0:
                 continue
             start = sub.in_frame(anchor, out[k])
-            x, y, th, _, _ = match(*fine, *start, beams, params, matcher.iterations, matcher.wide_iterations)
-            _, fitting = pose_likelihood(*fine, x, y, th, beams, params)
+            x, y, th, _, _, _, fitting = match(*fine, *start, beams, params, matcher.iterations,
+                                               matcher.wide_iterations)
             if fitting >= config.refine_fit * len(beams):
                 out[k] = compose(anchor, relative(sub.anchor_pose, np.array([x, y, th])))
 

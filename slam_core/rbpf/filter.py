@@ -276,8 +276,8 @@ class RBPFSlam:
         sx, sy, sth, _ = search(field, res, wx, wy, pred[0], pred[1], pred[2], points, angular,
                                 m.coarse_angular_step, linear_cells, m.coarse_prior_linear,
                                 m.coarse_prior_angular + 0.5 * turn)
-        x, y, th, _, _ = match(*fine, sx, sy, sth, beams, self._params, m.iterations, m.wide_iterations)
-        ll, fitting = pose_likelihood(*fine, x, y, th, beams, self._params)
+        x, y, th, _, _, ll, fitting = match(*fine, sx, sy, sth, beams, self._params, m.iterations,
+                                            m.wide_iterations)
         if ll > best_ll and fitting >= m.good_match * len(beams):
             return relative(pred, np.array([x, y, th])), True
         return relative(pred, best), False

@@ -28,17 +28,19 @@ weighted by its observation likelihood.
 from __future__ import annotations
 
 import numpy as np
-from numba import prange
 
 from slam_core.geometry import wrap_scalar
-from slam_core.jit import njit
+from slam_core.jit import njit, split
 from slam_core.motion_model import apply_motion, noise_stds
 from slam_core.rbpf.scan_matcher import cholesky3, match, pose_likelihood
 
 
 @njit
 def inverse3(a):
-    """Inverse of a 3 x 3 matrix (cofactors)."""
+    """Inverse of a 3 x 3 matrix (cofactors).
+
+    This module's kernels write small arrays element by element rather than as array expressions
+    or literals, each of which numba compiles as a function of its own (cold start)."""
     out = np.empty((3, 3))
     out[0, 0] = a[1, 1] * a[2, 2] - a[1, 2] * a[2, 1]
     out[0, 1] = a[0, 2] * a[2, 1] - a[0, 1] * a[2, 2]
@@ -50,7 +52,10 @@ def inverse3(a):
     out[2, 1] = a[0, 1] * a[2, 0] - a[0, 0] * a[2, 1]
     out[2, 2] = a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0]
     det = a[0, 0] * out[0, 0] + a[0, 1] * out[1, 0] + a[0, 2] * out[2, 0]
-    return out / det
+    for i in range(3):
+        for j in range(3):
+            out[i, j] /= det
+    return out
 
 
 @njit
@@ -64,10 +69,18 @@ def motion_covariance(th0, rot1, trans, rot2, alphas, floor):
     """Covariance of the odometry prediction from heading ``th0``, linearised at the mean motion."""
     s1, st, s2 = noise_stds(rot1, trans, rot2, alphas[0], alphas[1], alphas[2], alphas[3])
     h = th0 + rot1
-    jac = np.array([[-trans * np.sin(h), np.cos(h), 0.0],
-                    [trans * np.cos(h), np.sin(h), 0.0],
-                    [1.0, 0.0, 1.0]])
-    cov = jac @ np.diag(np.array([s1 * s1, st * st, s2 * s2])) @ jac.T
+    jac = np.zeros((3, 3))
+    jac[0, 0] = -trans * np.sin(h)
+    jac[0, 1] = np.cos(h)
+    jac[1, 0] = trans * np.cos(h)
+    jac[1, 1] = np.sin(h)
+    jac[2, 0] = 1.0
+    jac[2, 2] = 1.0
+    var = np.zeros((3, 3))
+    var[0, 0] = s1 * s1
+    var[1, 1] = st * st
+    var[2, 2] = s2 * s2
+    cov = jac @ var @ jac.T
     for i in range(3):
         cov[i, i] += floor[i]
     return cov
@@ -82,15 +95,19 @@ def gaussian_product(x_star, info, x_pred, motion_cov):
     d[1] = x_pred[1] - x_star[1]
     d[2] = wrap_scalar(x_pred[2] - x_star[2])
     b = s_inv @ d
-    lam = info + s_inv
+    lam = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            lam[i, j] = info[i, j] + s_inv[i, j]
     cov = inverse3(lam)
     shift = cov @ b
-    mean = x_star + shift
+    mean = np.empty(3)
+    for i in range(3):
+        mean[i] = x_star[i] + shift[i]
     log_eta = -0.5 * (_log_det(motion_cov) + _log_det(lam) + d @ b - b @ shift)
     return mean, cov, log_eta
 
 
-@njit(parallel=True)
 def improved_proposal(tables, lo, hits, origin_x, origin_y, resolution, prev, starts, motion, alphas,
                       fallback_motion, fallback_alphas, beams, params, iterations, wide_iterations,
                       min_matched, motion_floor, noise, out_pose, out_logw, out_matched):
@@ -99,15 +116,26 @@ def improved_proposal(tables, lo, hits, origin_x, origin_y, resolution, prev, st
     ``starts`` are the poses the matching starts from, ``motion`` is
     ``(rot1, trans, rot2)`` of the odometry, ``noise`` standard normal ``(n, 3)``. A particle
     that does not match is drawn around ``fallback_motion`` with the noise of ``fallback_alphas``
-    (the odometry as calibrated, :mod:`slam_core.rbpf.odometry_calibration`).
+    (the odometry as calibrated, :mod:`slam_core.rbpf.odometry_calibration`). Particles are split
+    over threads (:func:`slam_core.jit.split`).
     """
+    split(_propose, prev.shape[0], tables, lo, hits, origin_x, origin_y, resolution, prev, starts, motion,
+          alphas, fallback_motion, fallback_alphas, beams, params, iterations, wide_iterations, min_matched,
+          motion_floor, noise, out_pose, out_logw, out_matched)
+
+
+@njit
+def _propose(first, stop, tables, lo, hits, origin_x, origin_y, resolution, prev, starts, motion, alphas,
+             fallback_motion, fallback_alphas, beams, params, iterations, wide_iterations, min_matched,
+             motion_floor, noise, out_pose, out_logw, out_matched):
+    """:func:`improved_proposal` for particles ``first`` to ``stop - 1``."""
     rot1, trans, rot2 = motion[0], motion[1], motion[2]
-    for p in prange(prev.shape[0]):
+    for p in range(first, stop):
         table = tables[p]
         x0, y0, th0 = prev[p, 0], prev[p, 1], prev[p, 2]
-        mx, my, mth, info, matched = match(table, lo, hits, origin_x, origin_y, resolution,
-                                           starts[p, 0], starts[p, 1], starts[p, 2], beams, params,
-                                           iterations, wide_iterations)
+        mx, my, mth, info, matched, ll, _ = match(table, lo, hits, origin_x, origin_y, resolution,
+                                                  starts[p, 0], starts[p, 1], starts[p, 2], beams, params,
+                                                  iterations, wide_iterations)
         if matched < min_matched:
             f1, ft, f2 = fallback_motion[0], fallback_motion[1], fallback_motion[2]
             s1, st, s2 = noise_stds(f1, ft, f2, fallback_alphas[0], fallback_alphas[1], fallback_alphas[2],
@@ -122,29 +150,36 @@ def improved_proposal(tables, lo, hits, origin_x, origin_y, resolution, prev, st
             out_logw[p] = ll
             out_matched[p] = False
             continue
-        ll, _ = pose_likelihood(table, lo, hits, origin_x, origin_y, resolution, mx, my, mth, beams,
-                                params)
         px, py, pth = apply_motion(x0, y0, th0, rot1, trans, rot2)
         cov_m = motion_covariance(th0, rot1, trans, rot2, alphas, motion_floor)
-        mean, cov, log_eta = gaussian_product(np.array([mx, my, mth]), info, np.array([px, py, pth]),
-                                              cov_m)
-        draw = mean + cholesky3(cov) @ noise[p]
-        out_pose[p, 0] = draw[0]
-        out_pose[p, 1] = draw[1]
-        out_pose[p, 2] = wrap_scalar(draw[2])
+        x_star = np.empty(3)
+        x_star[0], x_star[1], x_star[2] = mx, my, mth
+        x_pred = np.empty(3)
+        x_pred[0], x_pred[1], x_pred[2] = px, py, pth
+        mean, cov, log_eta = gaussian_product(x_star, info, x_pred, cov_m)
+        step = cholesky3(cov) @ noise[p]
+        out_pose[p, 0] = mean[0] + step[0]
+        out_pose[p, 1] = mean[1] + step[1]
+        out_pose[p, 2] = wrap_scalar(mean[2] + step[2])
         out_logw[p] = ll + log_eta
         out_matched[p] = True
 
 
-@njit(parallel=True)
 def match_starts(table, lo, hits, origin_x, origin_y, resolution, starts, beams, params, iterations,
                  wide_iterations, out_pose, out_ll, out_matched):
-    """Fine matches on one map from each of ``starts``, in parallel: fills ``out_pose``, ``out_ll``
-    (log-likelihood of the result) and ``out_matched`` (beams matched in the last pass)."""
-    for i in prange(starts.shape[0]):
-        x, y, th, _, n = match(table, lo, hits, origin_x, origin_y, resolution, starts[i, 0], starts[i, 1],
-                               starts[i, 2], beams, params, iterations, wide_iterations)
-        ll, _ = pose_likelihood(table, lo, hits, origin_x, origin_y, resolution, x, y, th, beams, params)
+    """Fine matches on one map from each of ``starts``, split over threads: fills ``out_pose``,
+    ``out_ll`` (log-likelihood of the result) and ``out_matched`` (beams matched in the last pass)."""
+    split(_match_range, starts.shape[0], table, lo, hits, origin_x, origin_y, resolution, starts, beams,
+          params, iterations, wide_iterations, out_pose, out_ll, out_matched)
+
+
+@njit
+def _match_range(first, stop, table, lo, hits, origin_x, origin_y, resolution, starts, beams, params,
+                 iterations, wide_iterations, out_pose, out_ll, out_matched):
+    """:func:`match_starts` for starts ``first`` to ``stop - 1``."""
+    for i in range(first, stop):
+        x, y, th, _, n, ll, _ = match(table, lo, hits, origin_x, origin_y, resolution, starts[i, 0],
+                                      starts[i, 1], starts[i, 2], beams, params, iterations, wide_iterations)
         out_pose[i, 0] = x
         out_pose[i, 1] = y
         out_pose[i, 2] = th

@@ -26,9 +26,8 @@ from __future__ import annotations
 import mmap
 
 import numpy as np
-from numba import prange
 
-from slam_core.jit import njit
+from slam_core.jit import njit, split
 from slam_core.occupancy_grid import OccupancyGrid, SensorModel
 from slam_core.raycast import beam_endpoint, ray_buffer_size, trace_ray
 
@@ -65,12 +64,23 @@ def _parts_with_hits(hit_of, t):
 
 
 @njit
-def _demand(tables, refs, hit_of, origin_x, origin_y, tile_size, poses, reach, beams, tiles, blocks):
-    """Upper bounds of the tiles and hit blocks a scan from each map's pose can take: the tiles
-    within ``reach`` that are not that map's own (missing or shared), and the parts there
-    without a hit block of their own, at most one per beam, plus the shared tiles' blocks."""
+def _count_held(refs, hit_of, held):
+    """``held[t]``: the parts of tile ``t`` with a hit block, for every tile in use."""
+    for t in range(refs.shape[0]):
+        if refs[t] > 0:
+            held[t] = _parts_with_hits(hit_of, t)
+
+
+@njit
+def _demand(first, stop, tables, refs, held, origin_x, origin_y, tile_size, poses, reach, beams, tiles,
+            blocks):
+    """Upper bounds of the tiles and hit blocks a scan from the pose of map ``first`` to
+    ``stop - 1`` can take: the tiles within ``reach`` that are not that map's own (missing or
+    shared), and the parts there without a hit block of their own, at most one per beam, plus
+    the shared tiles' blocks. ``held`` as :func:`_count_held` gives it (the maps share most
+    tiles: counted once per tile rather than once per map)."""
     n_ty, n_tx = tables.shape[1], tables.shape[2]
-    for p in range(poses.shape[0]):  # serial: a parallel launch costs more than this loop
+    for p in range(first, stop):
         tx0 = max(int(np.floor((poses[p, 0] - reach - origin_x) / tile_size)) - 1, 0)
         ty0 = max(int(np.floor((poses[p, 1] - reach - origin_y) / tile_size)) - 1, 0)
         tx1 = min(int(np.floor((poses[p, 0] + reach - origin_x) / tile_size)) + 1, n_tx - 1)
@@ -81,13 +91,32 @@ def _demand(tables, refs, hit_of, origin_x, origin_y, tile_size, poses, reach, b
         for ty in range(ty0, ty1 + 1):
             for tx in range(tx0, tx1 + 1):
                 t = tables[p, ty, tx]
-                held = 0 if t < 0 else _parts_with_hits(hit_of, t)
-                without_hits += PARTS - held
+                n = 0 if t < 0 else held[t]
+                without_hits += PARTS - n
                 if t < 0 or refs[t] != 1:
                     foreign += 1
-                    foreign_hits += held
+                    foreign_hits += n
         tiles[p] = foreign
         blocks[p] = foreign_hits + min(without_hits, beams)
+
+
+@njit
+def _copy_tile(lo, new, t):
+    """Tile ``new``'s log-odds become tile ``t``'s (0 for ``t < 0``). Element by element, as
+    :func:`_copy_block`: an array assigned to a slice compiles numba's shape-mismatch message
+    (string formatting), seconds of a cold start."""
+    for cy in range(TILE):
+        for cx in range(TILE):
+            lo[new, cy, cx] = 0.0 if t < 0 else lo[t, cy, cx]
+
+
+@njit
+def _copy_block(hit_blocks, new, h):
+    """Hit block ``new`` becomes a copy of block ``h``."""
+    for hy in range(PART):
+        for hx in range(PART):
+            for k in range(3):
+                hit_blocks[new, hy, hx, k] = hit_blocks[h, hy, hx, k]
 
 
 @njit
@@ -138,16 +167,13 @@ def _integrate_map(p, tables, refs, lo, hit_of, hit_blocks, stack, bottom, top, 
                 new = stack[top[p]]
                 source[top[p] - base] = t
                 refs[new] = 1
-                if t < 0:
-                    lo[new] = 0.0
-                else:
-                    lo[new] = lo[t]
+                _copy_tile(lo, new, t)
                 for j in range(PARTS):
                     hit_of[new, j] = -1
                     if t >= 0 and hit_of[t, j] >= 0:
                         hit_top[p] -= 1
                         h = hit_stack[hit_top[p]]
-                        hit_blocks[h] = hit_blocks[hit_of[t, j]]
+                        _copy_block(hit_blocks, h, hit_of[t, j])
                         hit_of[new, j] = h
                 tables[p, ty, tx] = new
                 t = new
@@ -171,13 +197,13 @@ def _integrate_map(p, tables, refs, lo, hit_of, hit_blocks, stack, bottom, top, 
     return -1, 0
 
 
-@njit(parallel=True)
-def _integrate(tables, refs, lo, hit_of, hit_blocks, stack, bottom, top, hit_stack, hit_bottom, hit_top,
-               source, base, start, origin_x, origin_y, resolution, poses, angles, ranges, range_min,
+@njit
+def _integrate(first, stop, tables, refs, lo, hit_of, hit_blocks, stack, bottom, top, hit_stack, hit_bottom,
+               hit_top, source, base, start, origin_x, origin_y, resolution, poses, angles, ranges, range_min,
                range_max, usable_range, no_return_range, l_free, l_occ, l_min, l_max):
-    """:func:`_integrate_map` for every map not yet done (``start[p, 0] >= 0``), maps in
-    parallel; ``start`` becomes where each stopped."""
-    for p in prange(poses.shape[0]):
+    """:func:`_integrate_map` for maps ``first`` to ``stop - 1`` not yet done (``start[p, 0] >= 0``);
+    ``start`` becomes where each stopped. Maps are split over threads (:func:`slam_core.jit.split`)."""
+    for p in range(first, stop):
         if start[p, 0] >= 0:
             b, k = _integrate_map(p, tables, refs, lo, hit_of, hit_blocks, stack, bottom, top, hit_stack,
                                   hit_bottom, hit_top, source, base, start, origin_x, origin_y, resolution,
@@ -278,12 +304,18 @@ def _retable(tables, refs, free_stack, free_top, hit_of, hit_free_stack, hit_fre
     """Replace the maps by copies of ``parents``, keeping reference counts and the free stacks. Only
     the parents' tables are copied (each once); every tile in them gains its children's references
     before any map's old tiles are released."""
-    kept = np.unique(parents)
     row = np.full(tables.shape[0], -1, np.int64)
-    copies = np.empty((kept.shape[0], tables.shape[1], tables.shape[2]), tables.dtype)
-    for i in range(kept.shape[0]):
-        copies[i] = tables[kept[i]]
-        row[kept[i]] = i
+    kept = 0
+    for p in range(parents.shape[0]):
+        if row[parents[p]] < 0:
+            row[parents[p]] = kept
+            kept += 1
+    copies = np.empty((kept, tables.shape[1], tables.shape[2]), tables.dtype)
+    for p in range(tables.shape[0]):
+        if row[p] >= 0:
+            for ty in range(tables.shape[1]):
+                for tx in range(tables.shape[2]):
+                    copies[row[p], ty, tx] = tables[p, ty, tx]
     for p in range(tables.shape[0]):
         for ty in range(tables.shape[1]):
             for tx in range(tables.shape[2]):
@@ -428,8 +460,10 @@ class TiledMaps:
                              poses[:, 0].max() + reach, poses[:, 1].max() + reach)
         tiles = np.empty(self.n_maps, np.int64)
         blocks = np.empty(self.n_maps, np.int64)
-        _demand(self.tables, self.refs, self.hit_of, self.origin[0], self.origin[1], self.tile_size, poses,
-                reach, len(scan.angles), tiles, blocks)
+        held = np.empty(len(self.refs), np.int64)
+        _count_held(self.refs, self.hit_of, held)
+        split(_demand, self.n_maps, self.tables, self.refs, held, self.origin[0], self.origin[1],
+              self.tile_size, poses, reach, len(scan.angles), tiles, blocks)
         bounds = tiles, blocks
         tiles = np.minimum(tiles, self._took[0] + MIN_SLICE)
         blocks = np.minimum(blocks, self._took[1] + MIN_SLICE)
@@ -440,10 +474,11 @@ class TiledMaps:
             hit_bottom, hit_ceiling, hit_base = _slices(int(self.hit_free_top[0]), blocks)
             top, hit_top = ceiling.copy(), hit_ceiling.copy()
             source = np.empty(int(self.free_top[0]) - base, np.int32)
-            _integrate(self.tables, self.refs, self.lo, self.hit_of, self.hit_blocks, self.free_stack, bottom,
-                       top, self.hit_free_stack, hit_bottom, hit_top, source, base, start, self.origin[0],
-                       self.origin[1], self.resolution, poses, scan.angles, scan.ranges, scan.range_min,
-                       scan.range_max, m.usable_range, m.no_return_range, m.l_free, m.l_occ, m.l_min, m.l_max)
+            split(_integrate, self.n_maps, self.tables, self.refs, self.lo, self.hit_of, self.hit_blocks,
+                  self.free_stack, bottom, top, self.hit_free_stack, hit_bottom, hit_top, source, base, start,
+                  self.origin[0], self.origin[1], self.resolution, poses, scan.angles, scan.ranges,
+                  scan.range_min, scan.range_max, m.usable_range, m.no_return_range, m.l_free, m.l_occ,
+                  m.l_min, m.l_max)
             _settle(self.refs, self.hit_of, source, self.free_stack, self.free_top, base, bottom, ceiling,
                     top, self.hit_free_stack, self.hit_free_top, hit_base, hit_bottom, hit_top)
             took[:, 0] += ceiling - top
