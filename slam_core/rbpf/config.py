@@ -100,6 +100,10 @@ class RBPFConfig:
     update that triggers the next one (GMapping uses 1.0 m / 0.5 rad; updating
     more often costs time but keeps odometry's share of every pose small);
     ``resample_threshold``: resample when ``N_eff < resample_threshold * N``;
+    ``calibration_*``: the odometry's errors measured by the last ``calibration_window`` good
+    matches calibrate the draws of particles that do not match, once there are
+    ``calibration_min_samples`` of them, their noise at least ``calibration_min_scale`` of the
+    motion model's (:mod:`slam_core.rbpf.odometry_calibration`);
     ``loop_closure``: the back end that closes loops on the best particle's trajectory
     after a log (:mod:`slam_core.graph.loop_closure`)."""
 
