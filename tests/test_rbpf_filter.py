@@ -96,6 +96,17 @@ def test_falls_back_to_the_motion_model_when_nothing_matches():
     assert len(np.unique(slam.poses[:, 0])) == 5  # drawn from the motion model: spread out
 
 
+def test_a_handful_of_echoes_is_no_match():
+    slam = RBPFSlam(RBPFConfig(particles=5), seed=0)
+    slam.step(np.zeros(3), room_scan(np.zeros(3)))
+    pose = np.array([0.3, 0.0, 0.0])
+    full = room_scan(pose)
+    ranges = np.full(len(full.ranges), 80.0)
+    ranges[::20] = full.ranges[::20]  # 9 echoes, all on mapped walls
+    assert slam.step(pose, Scan(full.angles, ranges, 0.1, 80.0))
+    assert slam.stats.fallbacks == 5 and slam.stats.matched == 0  # too few beams to pin a pose down
+
+
 def test_no_update_before_the_robot_has_moved():
     config = RBPFConfig(particles=3, linear_update=0.5, angular_update=0.3)
     slam = RBPFSlam(config, seed=0)

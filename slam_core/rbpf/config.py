@@ -26,7 +26,8 @@ class MatcherParams:
     pull stops growing; ``start_sigma_xy`` / ``start_sigma_th``: the weak prior
     on the start pose that settles directions the scan leaves open;
     ``max_beams``: beams used (evenly spread) up to ``max_range``;
-    ``min_matched``: the fraction of them that must match, else the particle
+    ``min_matched``: the fraction of them that must match, and
+    ``min_matched_beams`` the number (fewer cannot pin a pose down), else the particle
     falls back to the motion model; ``good_match``: the matched fraction above
     which the leading particle's match is trusted without the coarse search;
     ``lead_rotations`` / ``lead_rotation_step``: the leading particle is matched
@@ -64,6 +65,7 @@ class MatcherParams:
     max_beams: int = 180
     max_range: float = 20.0
     min_matched: float = 0.25
+    min_matched_beams: int = 20
     good_match: float = 0.6
     lead_rotations: int = 3
     check_beams: int = 60

@@ -181,8 +181,8 @@ class RBPFSlam:
                           self.maps.origin[1], self.maps.resolution, self.poses, starts, motion,
                           c.motion.alphas, self.calibration.corrected(motion),
                           self.calibration.fallback_alphas(), beams, self._params, m.iterations,
-                          m.wide_iterations, max(1.0, m.min_matched * len(beams)), floor, noise,
-                          new_poses, log_eta, matched)
+                          m.wide_iterations, max(float(m.min_matched_beams), m.min_matched * len(beams)),
+                          floor, noise, new_poses, log_eta, matched)
         self.poses = new_poses
         log_eta = log_eta / m.gain
         self.log_weights = self.log_weights + log_eta
@@ -236,7 +236,8 @@ class RBPFSlam:
     def _odometry_error(self, predicted: np.ndarray, motion: np.ndarray, scan: Scan,
                         beams: np.ndarray) -> tuple[np.ndarray, bool]:
         """The odometry's error (robot frame), found on the leading particle's map, and whether
-        the match it comes from fits well (at least ``good_match`` of the beams).
+        the match it comes from fits well (at least ``good_match`` of the beams, and
+        ``min_matched_beams``).
 
         The leading particle is matched finely from its prediction turned to a few
         headings, and keeps the likeliest; when too few beams match after a large
@@ -261,7 +262,7 @@ class RBPFSlam:
         if matched < m.good_match * len(beams):
             best, best_ll, matched = self._take_back(fine, lead, reported, beams, best, best_ll, matched)
         points = self._matching_beams(scan, m.coarse_range, m.coarse_beams)[:, :2]
-        trusted = matched >= m.good_match * len(beams)
+        trusted = self._fits_well(matched, len(beams))
         if trusted or len(points) == 0:
             return relative(pred, best), trusted
         self.stats.coarse_searches += 1
@@ -278,9 +279,14 @@ class RBPFSlam:
                                 m.coarse_prior_angular + 0.5 * turn)
         x, y, th, _, _, ll, fitting = match(*fine, sx, sy, sth, beams, self._params, m.iterations,
                                             m.wide_iterations)
-        if ll > best_ll and fitting >= m.good_match * len(beams):
+        if ll > best_ll and self._fits_well(fitting, len(beams)):
             return relative(pred, np.array([x, y, th])), True
         return relative(pred, best), False
+
+    def _fits_well(self, matched: int, beams: int) -> bool:
+        """Whether a match of the leading particle is good enough to measure the odometry's error."""
+        m = self.config.matcher
+        return matched >= max(m.good_match * beams, m.min_matched_beams)
 
     def _take_back(self, fine: tuple, lead: int, reported: np.ndarray, beams: np.ndarray,
                    best: np.ndarray, best_ll: float, matched: int):
