@@ -47,6 +47,12 @@ def pose_error(status: dict) -> float:
     return math.hypot(pose["x"] - true[0], pose["y"] - true[1])
 
 
+def pose_change(before: dict, after: dict) -> tuple[float, float]:
+    """How far the published pose moved between two statuses: ``(metres, |radians|)``."""
+    a, b = before["pose"], after["pose"]
+    return math.hypot(b["x"] - a["x"], b["y"] - a["y"]), abs(math.remainder(b["yaw"] - a["yaw"], math.tau))
+
+
 def wait_for(server: LiveServer, condition, timeout: float) -> tuple[dict, float]:
     """Poll the status until ``condition(status)``; ``(status, seconds waited)``; raises on timeout."""
     start = time.monotonic()
