@@ -145,6 +145,22 @@ def test_a_turn_the_odometry_reports_late_is_not_counted_twice():
     assert abs(wrap_angle(slam.estimate().pose[2] - late[2])) < 0.05
 
 
+def test_a_long_step_that_fits_poorly_is_not_taken_back_without_a_forced_update():
+    """Only an odometry that stalled (forced updates) and caught up has motion to take back: a
+    long ordinary step whose scan the map explains badly (people around the robot) keeps it."""
+    slam = RBPFSlam(RBPFConfig(particles=5), seed=0)
+    slam.step(np.zeros(3), room_scan(np.zeros(3), 360))
+    pose = np.array([1.0, 0.2, 0.0])
+    full = room_scan(pose, 360)
+    rng = np.random.default_rng(0)
+    ranges = full.ranges.copy()
+    people = rng.random(len(ranges)) < 0.5
+    ranges[people] = rng.uniform(0.3, 1.5, people.sum())
+    assert slam.step(pose, Scan(full.angles, ranges, 0.1, 80.0))
+    assert slam.stats.forced_updates == 0 and slam.stats.take_back_searches == 0
+    assert np.hypot(*(slam.estimate().pose[:2] - pose[:2])) < 0.02
+
+
 def test_slice_of_the_mit_csail_log_stays_accurate(tmp_path):
     """Regression: the first 400 scans of mit-csail stay within 6 cm / 1.5 deg (0.030 m / 0.67 deg now).
 

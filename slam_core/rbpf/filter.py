@@ -90,6 +90,7 @@ class RBPFSlam:
         self.update_odometry: list[np.ndarray] = []
         self._last_odom: np.ndarray | None = None
         self._last_fit = 0.0
+        self._after_forced = False  # the last update was one the scan forced (see _take_back)
         self._params = self.config.matcher.packed()
         c = self.config
         self.calibration = OdometryCalibration(c.motion.alphas, c.calibration_window,
@@ -165,6 +166,7 @@ class RBPFSlam:
         motion = np.array(decompose(*odom0, *odom1))
         predicted = compose(self.poses, relative(odom0, odom1))
         error, trusted = self._odometry_error(predicted, motion, scan, beams)
+        self._after_forced = forced
         if trusted:
             self.calibration.observe(motion, error)
             self.stats.odometry = self.calibration.summary()
@@ -241,8 +243,8 @@ class RBPFSlam:
 
         The leading particle is matched finely from its prediction turned to a few
         headings, and keeps the likeliest; when too few beams match after a large
-        reported motion, starts that take part of it back are tried too
-        (:meth:`_take_back`). When still
+        reported motion that follows a forced update, starts that take part of it back are
+        tried too (:meth:`_take_back`). When still
         too few beams match, a coarse correlative search, whose window widens with
         the odometry's rotation (its worst errors come with fast turns), gives a
         second start; its fine match wins if it is likelier and fits well. The
@@ -259,7 +261,7 @@ class RBPFSlam:
         headings[:, 2] += step * np.arange(-m.lead_rotations, m.lead_rotations + 1)
         best, best_ll, matched = self._likeliest(fine, headings, beams, pred)
         reported = relative(self.poses[lead], pred)
-        if matched < m.good_match * len(beams):
+        if matched < m.good_match * len(beams) and self._after_forced:
             best, best_ll, matched = self._take_back(fine, lead, reported, beams, best, best_ll, matched)
         points = self._matching_beams(scan, m.coarse_range, m.coarse_beams)[:, :2]
         trusted = self._fits_well(matched, len(beams))
@@ -290,10 +292,12 @@ class RBPFSlam:
 
     def _take_back(self, fine: tuple, lead: int, reported: np.ndarray, beams: np.ndarray,
                    best: np.ndarray, best_ll: float, matched: int):
-        """Try starts that take back part of a large reported motion.
+        """Try starts that take back part of a large reported motion, right after a forced update.
 
         An odometry that stalls and then catches up reports, in one step, motion the scans
-        showed during the stall, which the filter followed then (forced updates). The
+        showed during the stall, which the filter followed then (forced updates). Without a
+        forced update before it, the motion is the odometry's to report: taking it back would
+        only pull the scan towards where the map was seen from (its best overlap). The
         starts are the reported motion scaled by ``1 - k / steps``, the steps fine enough
         for the matcher to capture (``lead_rotation_step`` in heading, 5 cm in travel); the
         likeliest wins where the scan then fits well.
