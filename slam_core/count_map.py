@@ -25,7 +25,7 @@ import numpy as np
 
 from slam_core.jit import njit
 from slam_core.occupancy_grid import GROW_CHUNK, OccupancyGrid, SensorModel
-from slam_core.raycast import beam_endpoint, ray_buffer_size, trace_ray
+from slam_core.raycast import beam_endpoint, cleared_cells, ray_buffer_size, trace_ray
 from slam_core.rbpf.hit_render import SparseHits, echo_endpoints
 from slam_core.scan import Scan
 
@@ -38,7 +38,7 @@ OCC, FREE = 0, 1
 
 @njit
 def _count_beams(counts, touched, ix0, iy0, inv, poses, angles, ranges, offsets, limits, usable_range,
-                 no_return_range):
+                 no_return_range, echo_margin):
     """Add the observations of scan ``s`` (beams ``offsets[s]:offsets[s + 1]``, from laser pose
     ``poses[s]``) to zeroed ``counts[iy - iy0, ix - ix0, OCC | FREE]``, which must hold every traced
     cell; the flat indices of the cells touched go to ``touched`` (as large as ``counts``' cells),
@@ -54,10 +54,12 @@ def _count_beams(counts, touched, ix0, iy0, inv, poses, angles, ranges, offsets,
                                              usable_range, no_return_range)
             if not use:
                 continue
-            n = trace_ray(gx0, gy0, ex * inv - ix0, ey * inv - iy0, buf)
+            gx1, gy1 = ex * inv - ix0, ey * inv - iy0
+            n = trace_ray(gx0, gy0, gx1, gy1, buf)
+            cleared = cleared_cells(buf, n, hit, gx1, gy1, echo_margin * inv)
             for k in range(n):
                 cx, cy = buf[k, 0], buf[k, 1]
-                if cx < 0 or cy < 0 or cx >= nx or cy >= ny:
+                if cx < 0 or cy < 0 or cx >= nx or cy >= ny or cleared <= k < n - 1:
                     continue
                 if counts[cy, cx, OCC] == 0 and counts[cy, cx, FREE] == 0:
                     touched[m] = cy * nx + cx
@@ -127,7 +129,7 @@ class SubmapCounts:
         limits = np.array([(s.range_min, s.range_max) for s in scans], np.float64)
         m = _count_beams(counts, touched, float(ix0), float(iy0), inv, laser_poses,
                          np.concatenate([s.angles for s in scans]), np.concatenate([s.ranges for s in scans]),
-                         offsets, limits, model.usable_range, model.no_return_range)
+                         offsets, limits, model.usable_range, model.no_return_range, model.echo_margin)
         touched = np.sort(touched[:m]).astype(np.int32)
         found = counts.reshape(-1, 2)[touched]
         dtype = np.uint16 if found.max(initial=0) <= np.iinfo(np.uint16).max else np.int32

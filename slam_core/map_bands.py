@@ -17,7 +17,7 @@ import numpy as np
 from slam_core.count_map import SubmapCounts, _reach
 from slam_core.jit import njit
 from slam_core.occupancy_grid import GROW_CHUNK, OccupancyGrid, SensorModel
-from slam_core.raycast import beam_endpoint, ray_buffer_size, trace_ray
+from slam_core.raycast import beam_endpoint, cleared_cells, ray_buffer_size, trace_ray
 from slam_core.scan import Scan
 
 #: Cells counted at a time (8 bytes each, and a float64 probability each while written).
@@ -26,7 +26,7 @@ BAND_CELLS = 1 << 21
 
 @njit
 def _count_band(occupied, free, row0, col0, ix0, iy0, nx, ny, inv, poses, angles, ranges, offsets, limits,
-                usable_range, no_return_range):
+                usable_range, no_return_range, echo_margin):
     """Add the observations of scan ``s`` (beams ``offsets[s]:offsets[s + 1]`` from laser pose
     ``poses[s]``), traced as ``count_map._count_beams`` traces them into ``ny`` x ``nx`` cells from the
     absolute cell ``(ix0, iy0)``, to the band ``occupied`` / ``free`` whose cell ``[0, 0]`` is the
@@ -46,10 +46,12 @@ def _count_band(occupied, free, row0, col0, ix0, iy0, nx, ny, inv, poses, angles
             a, z = int(np.floor(gy0)), int(np.floor(gy1))  # a ray's cells stay within its ends' rows
             if max(a, z) < first or min(a, z) > last:
                 continue
-            n = trace_ray(gx0, gy0, ex * inv - ix0, gy1, buf)
+            gx1 = ex * inv - ix0
+            n = trace_ray(gx0, gy0, gx1, gy1, buf)
+            cleared = cleared_cells(buf, n, hit, gx1, gy1, echo_margin * inv)
             for k in range(n):
                 cx, cy = buf[k, 0], buf[k, 1]
-                if cx < 0 or cy < 0 or cx >= nx or cy >= ny or cy < first or cy > last:
+                if cx < 0 or cx >= nx or cy < max(first, 0) or cy > min(last, ny - 1) or cleared <= k < n - 1:
                     continue
                 if hit and k == n - 1:
                     occupied[cy - first, cx + ix0 - col0] += 1
@@ -119,7 +121,7 @@ class MapBands:
             limits = np.array([(s.range_min, s.range_max) for s in scans], np.float64)
             _count_band(occupied, free, row0, col0, ix0, iy0, ix1 - ix0 + 1, iy1 - iy0 + 1, inv, poses,
                         np.concatenate([s.angles for s in scans]), np.concatenate([s.ranges for s in scans]),
-                        offsets, limits, m.usable_range, m.no_return_range)
+                        offsets, limits, m.usable_range, m.no_return_range, m.echo_margin)
         _to_log_odds(occupied, free, m.l_occ, m.l_free, m.l_min, m.l_max)
         return occupied
 

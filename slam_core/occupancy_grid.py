@@ -33,6 +33,8 @@ class SensorModel:
     ``usable_range`` caps how far an echo is trusted: longer beams clear space up
     to it and mark nothing. No-return beams clear space up to ``no_return_range``
     (glass and black surfaces also give no return, so this cap is short).
+    ``echo_margin`` (m): a beam leaves the cells this close to its echo as they were
+    (see :mod:`slam_core.raycast`).
     """
 
     p_hit: float = 0.7
@@ -41,6 +43,7 @@ class SensorModel:
     p_max: float = 0.97
     usable_range: float = 20.0
     no_return_range: float = 4.0
+    echo_margin: float = 0.1
 
     @property
     def l_occ(self) -> float:
@@ -127,7 +130,8 @@ class OccupancyGrid:
         self._grow_for(scan, pose)
         integrate_scan_dense(self.data, self.origin[0], self.origin[1], self.resolution, pose,
                              scan.angles, scan.ranges, scan.range_min, scan.range_max,
-                             m.usable_range, m.no_return_range, m.l_free, m.l_occ, m.l_min, m.l_max)
+                             m.usable_range, m.no_return_range, m.echo_margin, m.l_free, m.l_occ, m.l_min,
+                             m.l_max)
 
     def _grow_for(self, scan: Scan, pose: np.ndarray) -> None:
         self.ensure_contains(*self.reach_of(scan, pose))

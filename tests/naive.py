@@ -52,7 +52,8 @@ def integrate_scan(logodds, origin, resolution, pose, scan, model):
 
     Updates ``logodds`` (float32, ``[iy, ix]``) in place exactly as the kernel
     documents: ``l_free`` on every traced cell of a beam, ``l_occ`` instead on its
-    echo cell, each sum clamped to ``[l_min, l_max]``. Raises if a cell lies outside.
+    echo cell, nothing on the other cells whose centre lies within ``echo_margin`` of
+    the echo, each sum clamped to ``[l_min, l_max]``. Raises if a cell lies outside.
     """
     px, py, pth = (float(v) for v in pose)
     ox, oy = float(origin[0]), float(origin[1])
@@ -73,7 +74,11 @@ def integrate_scan(logodds, origin, resolution, pose, scan, model):
         for k, (ix, iy) in enumerate(cells):
             if not (0 <= iy < logodds.shape[0] and 0 <= ix < logodds.shape[1]):
                 raise IndexError(f"cell {(ix, iy)} outside grid {logodds.shape}")
-            delta = model.l_occ if hit and k == len(cells) - 1 else model.l_free
+            echo = hit and k == len(cells) - 1
+            centre = ox + (ix + 0.5) * resolution, oy + (iy + 0.5) * resolution
+            if hit and not echo and math.dist(centre, (ex, ey)) < model.echo_margin:
+                continue
+            delta = model.l_occ if echo else model.l_free
             v = float(logodds[iy, ix]) + delta
             logodds[iy, ix] = min(max(v, model.l_min), model.l_max)
 

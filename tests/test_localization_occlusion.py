@@ -65,3 +65,26 @@ def test_the_track_rides_out_a_crowd_and_says_so():
         assert mcl.tracker.tracking and error <= 0.1, (k, error)
         assert not (in_crowd and e.localized), k  # the pose is odometry's: not claimed localized
         assert e.localized or in_crowd, k
+
+
+def test_a_confirmed_track_that_misses_a_few_scans_keeps_the_cloud_around_it():
+    """Scans the map does not explain (here: seen from elsewhere) are misses, not a reason to scatter
+    random particles over the whole map: a cloud that converged there could take the track away."""
+    grid = room_map()
+    rng = np.random.default_rng(2)
+    path = [np.array([-2.0 + 0.15 * k, -0.5 + 0.02 * k, 0.1]) for k in range(30)]
+    mcl = MonteCarloLocalizer(grid, rng=rng, initial_pose=path[0],
+                              initial_covariance=np.diag([0.05, 0.05, 0.02]) ** 2)
+    misses = 0
+    for k, truth in enumerate(path):
+        elsewhere = 20 <= k < 23
+        seen_from = np.add(truth, (0.4, 1.5, 2.0)) if elsewhere else truth
+        mcl.step(truth, room_scan(seen_from, noise=0.01, rng=rng))
+        misses = max(misses, mcl.tracker.misses)
+        if k >= 15:
+            assert mcl.tracker.tracking and mcl.tracker.confirmed, k
+            assert mcl.status.injection == 0.0, k
+            spread = np.hypot(*(mcl.particles[:, :2] - mcl.tracker.pose[:2]).T)
+            assert spread.max() < 1.0, (k, spread.max())
+    assert misses >= 2  # the scans from elsewhere were rejected, not ridden out as a crowd
+    assert np.hypot(*(mcl.estimate().pose[:2] - path[-1][:2])) < 0.1

@@ -19,8 +19,8 @@ track to the one that resumes it, it moves smoothly: per scan its position moves
 filter runs on its own and checks the track: a track starts from a known pose or from the
 converged main cluster, and moves there when the converged cloud disagrees with it and
 the scan fits there at least as well.
-While the track holds no random particles are injected, and once it is
-confirmed the robot is *localized*.
+While the track holds no random particles are injected (nor while a confirmed one rides out a
+few scans the map does not explain), and once it is confirmed the robot is *localized*.
 
 A confirmed track lost because the map explained too little of the scans (ranges beyond what it
 holds, fog) is not a wrong pose: as AMCL users expect, the robot is still about where the
@@ -499,8 +499,8 @@ class MonteCarloLocalizer:
             self.w_slow += cfg.alpha_slow * (w_avg - self.w_slow)
             self.w_fast += cfg.alpha_fast * (w_avg - self.w_fast)
         injection = max(0.0, 1.0 - self.w_fast / self.w_slow) if cfg.alpha_slow > 0 else 0.0
-        if self.tracker.tracking and self.tracker.misses == 0:
-            injection = 0.0  # the map explains the scans: no random guesses
+        if self.tracker.tracking and (self.tracker.misses == 0 or self.tracker.confirmed):
+            injection = 0.0  # the map explains the scans, or a confirmed track rides out a miss
         log_w = np.log(self.weights) + log_lik * (cfg.effective_beams / used)
         w = np.exp(log_w - log_w.max())
         self.weights = w / w.sum()
