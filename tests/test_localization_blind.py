@@ -106,3 +106,31 @@ def test_clutter_neither_moves_the_published_pose_nor_flags_a_wrong_one(cluttere
     assert jumps.max() <= 0.3, (int(jumps.argmax()) + 1, jumps.max())
     back = np.flatnonzero(flags[BLIND.stop:] & (errors[BLIND.stop:] <= GOOD_XY))
     assert len(back) and back[0] * STEP <= BACK_WITHIN
+
+
+def test_a_confirmed_track_switched_far_then_dropped_is_searched_for_where_it_was():
+    """A converged cloud that the confirmed track disagrees with moves it (here 1.5 m along the
+    look-alike corridor); the moved track must confirm itself again. Dropped before it does (the
+    scans turn to clutter), it is lost like a confirmed one: the filter looks around its pose, and
+    the published pose goes on with the odometry instead of following a cloud scattered over the map."""
+    rng = np.random.default_rng(4)
+    truth = [np.array([STEP * k, 0.0, 0.0]) for k in range(60)]
+    mcl = MonteCarloLocalizer(corridor_map(), CONFIG, rng=rng, initial_pose=truth[0],
+                              initial_covariance=np.diag([0.05, 0.05, 0.02]) ** 2)
+    published = []
+    for k, pose in enumerate(truth):
+        if k == 30:
+            assert mcl.tracker.confirmed
+            spread = rng.normal(0.0, (0.03, 0.03, 0.005), (CONFIG.min_particles, 3))
+            ahead = pose + np.array([1.5, 0.0, 0.0]) + spread
+            mcl._reset(ahead)  # the cloud converged on the look-alike 1.5 m ahead
+            mcl.updates_since_reset = CONFIG.localized_min_updates
+        scan = scan_at(pose, rng)
+        mcl.step(pose, clutter(scan, rng) if k > 30 else scan)
+        if k == 30:
+            assert mcl.tracker.tracking and not mcl.tracker.confirmed  # moved, to confirm again
+            assert abs(mcl.tracker.pose[0] - pose[0] - 1.5) < 0.3
+        published.append(mcl.estimate().pose[:2].copy())
+    jumps = np.hypot(*np.diff(published[31:], axis=0).T) - STEP
+    assert jumps.max() <= 0.3, (int(jumps.argmax()) + 32, jumps.max())
+    assert abs(published[-1][0] - truth[-1][0] - 1.5) < 1.0

@@ -32,7 +32,9 @@ the scan fits as well as the lost track's usually did, see :meth:`PoseTracker.tr
 at the converged cloud's; the new track must confirm itself like any other before the robot is
 localized again (while it is not confirmed, the search goes on from its pose if it is dropped).
 Only after ``recover_travel`` metres without a track, or when the scan that lost the track fits
-the map well far from that pose (a kidnapping), does the filter start over globally.
+the map well far from that pose (a kidnapping), does the filter start over globally. A confirmed
+track that a converged cloud moved more than ``switch_xy`` must confirm itself again; dropped
+before it does, it is lost like a confirmed one (searched for around its pose).
 """
 
 from __future__ import annotations
@@ -182,6 +184,7 @@ class MonteCarloLocalizer:
         self._published: np.ndarray | None = None  # the position published, smoothed (see _publish)
         self._published_odom = np.zeros(3)  # and the odometry then
         self._track_confirmed = False  # whether the track was confirmed after the previous scan
+        self._switched = False  # the track was a confirmed one moved far, not confirmed again since
         self._global_search: GlobalSearch | None = None  # built at the first global start
         self._seed_pending = False  # a global start waits for a scan to seed the particles
         self._lost: np.ndarray | None = None  # a lost track's pose moved on by the odometry (recovery)
@@ -204,6 +207,7 @@ class MonteCarloLocalizer:
         self.tracker.lose()
         self._seed_pending = True
         self._lost = None
+        self._switched = False
         self._published = None
 
     def _recover(self, pose: np.ndarray, travel: float, fit: float) -> None:
@@ -372,7 +376,8 @@ class MonteCarloLocalizer:
             t.correct(points, cfg.laser_pose[:2])
             if not t.tracking:  # lost (or carried off): the cloud's pose, or start over
                 found = self._converged() and t.try_start(self.main_cluster().pose, points)
-                if not found and was_confirmed:
+                if not found and (was_confirmed or self._switched):
+                    self._switched = False
                     if self._fits_elsewhere(scan, points, predicted, t.unmatched_travel):
                         self.global_localization()
                     else:
@@ -383,6 +388,7 @@ class MonteCarloLocalizer:
             if t.confirmed and not self._track_confirmed:
                 self._surround(t.pose)
                 self._lost = None
+                self._switched = False
             elif self._lost is not None:  # a new track, not confirmed yet: if it is dropped, look there
                 self._lost, self._lost_travel = t.pose.copy(), t.unmatched_travel
             self._track_confirmed = t.confirmed
@@ -394,7 +400,9 @@ class MonteCarloLocalizer:
                 # a track resumed after a loss outweighs a cloud that weighed scans the map did not
                 # explain: the cloud must fit clearly better
                 margin = cfg.hypothesis_margin if self._lost is not None else 0.0
-                t.try_switch(self.main_cluster().pose, points, margin)
+                confirmed = t.confirmed
+                if t.try_switch(self.main_cluster().pose, points, margin) and confirmed and not t.confirmed:
+                    self._switched = True  # dropped before it confirms itself, it is lost like one
             self._badly_converged = 0
         elif ((self._lost is not None and (t.try_resume(self._lost, points, self._lost_fit) or (
                 converged and t.try_resume(self.main_cluster().pose, points, self._lost_fit))))
