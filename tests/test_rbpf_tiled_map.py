@@ -1,5 +1,7 @@
 """Copy-on-write tiled maps: equal to the dense grid, shared until written."""
 
+from dataclasses import replace
+
 import numpy as np
 
 from slam_core.occupancy_grid import OccupancyGrid
@@ -28,7 +30,8 @@ def aligned(a: OccupancyGrid, b: OccupancyGrid):
 
 
 def dense_equivalent(maps: TiledMaps, index: int, scans_and_poses) -> None:
-    grid = OccupancyGrid(maps.resolution, model=maps.model)
+    # the particle maps clear every crossed cell, echo_margin or not (see slam_core.rbpf.tiled_map)
+    grid = OccupancyGrid(maps.resolution, model=replace(maps.model, echo_margin=0.0))
     for scan, pose in scans_and_poses:
         grid.integrate(scan, pose)
     a, b, outside = aligned(grid, maps.to_grid(index))
