@@ -13,7 +13,8 @@ odometry, then scan-to-map matching on every scan) while there is a track; while
 searches around a lost track (below), the heaviest cluster's mean if it lies within the search's
 reach of that track's pose moved on by the odometry, else that pose; else the weighted mean of
 the heaviest particle cluster. Along a confirmed track, and from a lost
-track to the one that resumes it, it moves smoothly: per scan its position moves at most
+track to the one that resumes it, and to a confirmed track's move by the cloud, it moves
+smoothly: per scan its position moves at most
 ``smooth_xy`` farther than the odometry moved (a correction is spread over the next scans)
 (a jump only when a track starts after a global start, which is not yet *localized*). The
 filter runs on its own and checks the track: a track starts from a known pose or from the
@@ -290,7 +291,7 @@ class MonteCarloLocalizer:
         ``smooth_xy`` farther than the odometry moved since the previous scan; any other track
         (after a global start) is published as it is."""
         t = self.tracker
-        smooth = self._lost is not None or (t.tracking and t.confirmed)
+        smooth = self._lost is not None or (t.tracking and (t.confirmed or self._switched))
         if not smooth:
             self._published = None
             self._published_odom = odom

@@ -64,8 +64,9 @@ class TrackingConfig:
     usual_rate: float = 0.1
     #: ... and for a track to start from a pose the particle filter proposes.
     start_fit: float = 0.8
-    #: A switch of the track to the filter's pose farther than this (m) must confirm itself again.
-    switch_xy: float = 1.0
+    #: A switch of the track to the filter's pose farther than this (m) must confirm itself again
+    #: (as far as the filter must disagree to be heard: the track was that wrong while confirmed).
+    switch_xy: float = 0.3
     #: Odometry travel (m) a track started by the filter must survive before it is confirmed.
     confirm_travel: float = 3.0
     #: ... and this many accepted matches (a log with a scan per metre needs more than 3 of them).
