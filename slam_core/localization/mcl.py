@@ -248,6 +248,7 @@ class MonteCarloLocalizer:
         self.tracker.start(pose)
         self._seed_pending = False
         self._lost = None
+        self._switched = False
         self._published = None
 
     def _reset(self, particles: np.ndarray) -> None:
