@@ -34,6 +34,7 @@ def _count_band(occupied, free, row0, col0, ix0, iy0, nx, ny, inv, poses, angles
     buf = np.empty((ray_buffer_size(usable_range, 1.0 / inv), 2), dtype=np.int64)
     rows = occupied.shape[0]
     first, last = row0 - iy0, row0 - iy0 + rows - 1  # the band's rows, from the corner
+    low, high = max(first, 0), min(last, ny - 1)  # ... that the traced cells hold
     for s in range(poses.shape[0]):
         px, py, pth = poses[s, 0], poses[s, 1], poses[s, 2]
         gx0, gy0 = px * inv - ix0, py * inv - iy0
@@ -51,7 +52,7 @@ def _count_band(occupied, free, row0, col0, ix0, iy0, nx, ny, inv, poses, angles
             cleared = cleared_cells(buf, n, hit, gx1, gy1, echo_margin * inv)
             for k in range(n):
                 cx, cy = buf[k, 0], buf[k, 1]
-                if cx < 0 or cx >= nx or cy < max(first, 0) or cy > min(last, ny - 1) or cleared <= k < n - 1:
+                if cx < 0 or cx >= nx or cy < low or cy > high or cleared <= k < n - 1:
                     continue
                 if hit and k == n - 1:
                     occupied[cy - first, cx + ix0 - col0] += 1
