@@ -105,3 +105,38 @@ def test_the_robust_back_end_drops_false_loop_edges_fed_to_it(ring):
     poses, dropped = robust_solve(bent, chain, {**edges, **false}, CONFIG.outlier_chi2)
     assert set(dropped) == set(false)
     assert distance(poses[lap:], poses[:50]).max() < 0.15
+
+
+@pytest.mark.parametrize("a, b_after", [(10, 49), (30, 49), (5, 30)])
+def test_a_loop_edge_found_shrinks_the_window_to_the_drift_since(a, b_after):
+    """Against a Monte Carlo run of the chain's noise from update ``a`` to the loop edge's older
+    end, the edge taken as exact, then the chain on to update ``b`` (an independent oracle)."""
+    config = LoopClosureConfig()
+    truth = ring_tour()
+    lap = len(truth) - 50  # the second lap passes the first lap's updates again
+    i, j, b = 12, lap + 12, lap + b_after
+    path = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(truth[:, :2], axis=0).T))])
+    drift = ChainDrift(truth, path, config)
+    chain, _ = drift.sigmas(np.array([a]), b)
+    linear = drift.since_loops(np.array([a]), b, np.array([[i, j]]))
+    steps = relative(truth[:-1], truth[1:])
+    travel = np.hypot(steps[:, 0], steps[:, 1])
+    sxy = config.chain_sigma_xy + config.chain_sigma_per_metre * travel
+    sth = (config.chain_sigma_th + config.chain_sigma_per_radian * np.abs(steps[:, 2])
+           + config.chain_sigma_th_per_metre * travel)
+    rng = np.random.default_rng(1)
+    noise = np.column_stack([sxy, sxy, sth])
+
+    def walk(pose, lo, hi):
+        for k in range(lo, hi):
+            pose = compose(pose, steps[k] + rng.standard_normal((4000, 3)) * noise[k])
+        return pose
+
+    origin = np.zeros((4000, 3))
+    at_i = walk(origin, a, i) if a <= i else relative(walk(origin, i, a), origin)  # i seen from a
+    ends = walk(compose(at_i, relative(truth[i], truth[j])), j, b)
+    off = ends - relative(truth[a], truth[b])
+    major = np.sqrt(np.linalg.eigvalsh(np.cov(off[:, :2].T))[-1])
+    assert chain[0] > 10.0 * major  # the chain alone: metres
+    assert 0.9 * major < linear[0] < 1.25 * major, (linear, major)
+    assert drift.since_loops(np.array([a]), b, np.zeros((0, 2), np.int64))[0] == chain[0]

@@ -313,11 +313,12 @@ def close_loops(poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig 
                     pairs.setdefault(s, []).append((q, *narrow))
         estimate = search_and_solve(pairs, estimate)
         linked = {q for _, q in edges}
+        loops = np.array(list(edges), np.int64).reshape(-1, 2)
         pairs = {}
         for q in range(first + (-first) % config.wide_every, n, config.wide_every):
             if q in linked:
                 continue
-            for s, linear, angular in _wide_candidates(q, estimate, path, submaps, drift, config):
+            for s, linear, angular in _wide_candidates(q, estimate, path, submaps, drift, loops, config):
                 if (s, q) not in tried_wide:
                     tried_wide.add((s, q))
                     pairs.setdefault(s, []).append((q, linear, angular))
@@ -395,7 +396,8 @@ def _chain_sigmas(poses: np.ndarray, config: LoopClosureConfig) -> tuple[np.ndar
 
 class ChainDrift:
     """How far the chain of filter steps alone may have drifted between two updates: its
-    steps' translation noise plus each step's heading noise swung over the path after it."""
+    steps' translation noise plus each step's heading noise swung over the path after it;
+    and how far at most once the loop edges found so far tie parts of the chain together."""
 
     def __init__(self, poses: np.ndarray, path: np.ndarray, config: LoopClosureConfig):
         sxy, sth = _chain_sigmas(poses, config)
@@ -403,13 +405,40 @@ class ChainDrift:
         at = path[:-1]  # where each step's heading error starts to swing the path
         self._cum = [np.concatenate([[0.0], np.cumsum(v)]) for v in (sxy ** 2, vth, vth * at, vth * at ** 2)]
         self._path = path
+        self._xy = poses[:, :2]
+
+    def _variances(self, a, b) -> tuple[np.ndarray, np.ndarray]:
+        """Position and heading variances of the later of updates ``a``, ``b`` (arrays broadcast)
+        relative to the earlier, along the chain."""
+        lo, hi = np.minimum(a, b), np.maximum(a, b)
+        xy, th, th_p, th_pp = (c[hi] - c[lo] for c in self._cum)
+        p = self._path[hi]
+        return xy + np.maximum(p * p * th - 2.0 * p * th_p + th_pp, 0.0), th
 
     def sigmas(self, a: np.ndarray | int, b: int) -> tuple[np.ndarray, np.ndarray]:
         """``(linear, angular)`` standard errors of update ``b`` relative to update(s) ``a < b``."""
-        xy, th, th_p, th_pp = (c[b] - c[a] for c in self._cum)
-        p = self._path[b]
-        lateral = np.maximum(p * p * th - 2.0 * p * th_p + th_pp, 0.0)
-        return np.sqrt(xy + lateral), np.sqrt(th)
+        vxy, vth = self._variances(a, b)
+        return np.sqrt(vxy), np.sqrt(vth)
+
+    def since_loops(self, a: np.ndarray, b: int, loops: np.ndarray) -> np.ndarray:
+        """The linear standard errors of :meth:`sigmas`, or less where a loop edge ``(i, j)`` of
+        ``loops`` (rows) makes a shorter way: the chain from ``a`` to ``i``, the edge (taken as
+        exact), the chain from ``j`` to ``b``, the heading error of the first part swinging the
+        edge and the last part (over the edge's length plus the path from ``j`` to ``b``). Of
+        the edges with one older end, the one whose newer end lies nearest ``b`` along the path
+        is taken."""
+        vxy, _ = self._variances(a, b)
+        if len(loops) == 0:
+            return np.sqrt(vxy)
+        i, j = loops[:, 0], loops[:, 1]
+        gap = np.abs(self._path[j] - self._path[b])
+        order = np.lexsort((gap, i))
+        keep = order[np.concatenate([[True], np.diff(i[order]) != 0])]
+        i, j = i[keep], j[keep]
+        lever = gap[keep] + np.hypot(*(self._xy[j] - self._xy[i]).T)
+        first_xy, first_th = self._variances(a[:, None], i[None, :])
+        last_xy, _ = self._variances(j, b)
+        return np.sqrt(np.minimum(vxy, (first_xy + last_xy + first_th * lever * lever).min(axis=1)))
 
 
 def _chain_information(poses: np.ndarray, config: LoopClosureConfig) -> np.ndarray:
@@ -461,14 +490,16 @@ def _candidates(q: int, estimate: np.ndarray, path: np.ndarray, submaps: Submaps
 
 
 def _wide_candidates(q: int, estimate: np.ndarray, path: np.ndarray, submaps: Submaps, drift: ChainDrift,
-                     config: LoopClosureConfig) -> list[tuple[int, float, float]]:
+                     loops: np.ndarray, config: LoopClosureConfig) -> list[tuple[int, float, float]]:
     """``(submap, linear, angular)``: the nearest submaps (at most ``wide_candidates``) passed
-    long before update ``q`` that the chain's drift between them may have moved within
-    ``search_radius`` of it, with the window that drift asks for."""
+    long before update ``q`` that the drift between them since the ``loops`` found (rows
+    ``(anchor, update)``) may have moved within ``search_radius`` of it, with the window that
+    drift asks for."""
     old = np.flatnonzero(path[q] - path[submaps.ends] >= config.min_loop_path)
     if len(old) == 0:
         return []
-    sxy, sth = drift.sigmas(submaps.anchors[old], q)
+    sxy = drift.since_loops(submaps.anchors[old], q, loops)
+    _, sth = drift.sigmas(submaps.anchors[old], q)  # the chain's heading drift: loops close it less surely
     linear = np.clip(config.window_sigmas * sxy, config.linear_window, config.max_linear_window)
     angular = np.clip(config.window_sigmas * sth, config.angular_window, config.max_angular_window)
     d = np.hypot(*(estimate[submaps.anchors[old], :2] - estimate[q, :2]).T)
