@@ -10,8 +10,8 @@ from hypothesis import strategies as st
 
 from slam_core.geometry import compose, relative, wrap_angle
 from slam_core.motion_model import OdometryMotionModel, noise_stds
+from slam_core.odometry_calibration import OdometryCalibration
 from slam_core.rbpf import RBPFConfig, RBPFSlam
-from slam_core.rbpf.odometry_calibration import OdometryCalibration
 from slam_core.scan import Scan
 from tests.synthetic_room import room_scan
 

@@ -181,6 +181,8 @@ class MonteCarloLocalizer:
         else:
             self.sensor = LikelihoodFieldModel(self.map, self.config.likelihood_field)
         self._last_odom: np.ndarray | None = None
+        self._raw_odom: np.ndarray | None = None  # the odometry as reported at the previous scan
+        self._odom = np.zeros(3)  # and as corrected by the tracker's calibration since the first
         self._estimate: Estimate | None = None
         self._published: np.ndarray | None = None  # the position published, smoothed (see _publish)
         self._published_odom = np.zeros(3)  # and the odometry then
@@ -273,18 +275,29 @@ class MonteCarloLocalizer:
         odom = np.asarray(odometry, dtype=np.float64).reshape(-1)
         if odom.shape != (3,) or not np.all(np.isfinite(odom)):
             raise ValueError(f"odometry must be three finite numbers (x, y, theta), got {odom}")
+        raw, odom = odom, self._corrected(odom)
         if self._lost is not None:  # move the lost track's pose on (the previous scan's odometry)
             step = relative(self._published_odom, odom)
             self._lost = compose(self._lost, step)
             self._lost_travel += float(np.hypot(step[0], step[1]))
             if not self.tracker.tracking and self._lost_travel > self.config.recover_travel:
                 self.global_localization()
-        self.tracker.predict(odom)
+        self.tracker.predict(raw)  # it corrects the odometry itself, and learns from it as reported
         self.filter_updated = self._filter_step(odom, scan)
         self._track(scan, self.filter_updated)
         self._publish(odom)
         self._estimate = None
         return self.filter_updated or self.tracker.tracking
+
+    def _corrected(self, odom: np.ndarray) -> np.ndarray:
+        """The odometry with each step since the previous scan corrected by the odometry's systematic
+        errors the tracker has measured: what the filter, a lost track and the smoothing move by."""
+        if self._raw_odom is None:
+            self._odom = odom.copy()
+        else:
+            self._odom = compose(self._odom, self.tracker.corrected(relative(self._raw_odom, odom)))
+        self._raw_odom = odom
+        return self._odom
 
     def _publish(self, odom: np.ndarray) -> None:
         """Move the published position towards the confirmed track, or while the filter searches

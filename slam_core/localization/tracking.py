@@ -5,7 +5,11 @@ pose that a scan matcher has pinned to the map; the particle filter alone
 publishes the mean of a cloud that the motion noise keeps blurred. The tracker
 does the former on every scan:
 
-1. *predict*: the tracked pose moves with the odometry since the previous scan. An odometry
+1. *predict*: the tracked pose moves with the odometry since the previous scan, corrected by the
+   odometry's systematic errors (travel scale, heading drift per metre and per radian turned:
+   :mod:`slam_core.odometry_calibration`) that the accepted matches fitting at least
+   ``calibration_fit`` measured since the last one (a robot whose wheels over-report travel runs
+   ahead along a corridor where the scan cannot pull it back). An odometry
    that freezes right after moving (a stall: less than ``stall_xy`` and ``stall_theta``
    after a step of at least ``stall_min_step``) has not seen the robot stop, which no robot
    does from speed within one scan: the prediction goes on at the speed before the freeze
@@ -49,6 +53,8 @@ import numpy as np
 from slam_core.geometry import compose, relative
 from slam_core.localization.known_map import KnownMap
 from slam_core.localization.scan_to_map import MatchResult, ScanToMapMatcher, prior_weights
+from slam_core.motion_model import OdometryMotionModel, decompose
+from slam_core.odometry_calibration import OdometryCalibration
 from slam_core.scan import Scan
 
 
@@ -85,6 +91,12 @@ class TrackingConfig:
     occluded_fit: float = 0.15
     max_through: float = 0.1
     occluded_travel: float = 3.0
+    #: Odometry calibration: accepted matches that fit at least this measure the odometry's error,
+    #: the last ``calibration_window`` of them are fitted, and none is applied before
+    #: ``calibration_min`` are known.
+    calibration_fit: float = 0.7
+    calibration_window: int = 200
+    calibration_min: int = 50
     #: Beams matched per scan (evenly spaced over the valid ones) and the range cap (m).
     beams: int = 180
     max_range: float = 30.0
@@ -142,6 +154,11 @@ class PoseTracker:
         self._last_step: np.ndarray | None = None  # the last odometry step that moved (robot frame)
         self._bridged = 0.0  # metres predicted through a stall that the odometry has not caught up
         self._moved = np.zeros(2)  # odometry distance and turn since the last accepted match
+        # the odometry's systematic error (its noise scales, which need a motion model, are not used)
+        self.odometry = OdometryCalibration(OdometryMotionModel().alphas, self.config.calibration_window,
+                                            self.config.calibration_min, 1.0)
+        self._anchor: np.ndarray | None = None  # the pose of the last accepted match
+        self._raw_since = np.zeros(3)  # and the odometry's motion since, uncorrected (stalls bridged)
         self._unconfirmed_travel = 0.0  # odometry travel since an unconfirmed start
         self._unconfirmed_matches = 0  # and accepted matches
         self._confirm_fit = self.config.start_fit  # the usual fit an unconfirmed track must keep
@@ -159,7 +176,9 @@ class PoseTracker:
     def predict(self, odom: np.ndarray) -> None:
         """Move the tracked pose by the odometry since the previous call."""
         if self.pose is not None and self._odom is not None:
-            step = self._bridge(relative(self._odom, odom))
+            raw = self._bridge(relative(self._odom, odom))
+            self._raw_since = compose(self._raw_since, raw)
+            step = self.corrected(raw)
             self.pose = compose(self.pose, step)
             self._moved += (np.hypot(step[0], step[1]), abs(step[2]))
             if not self.confirmed:
@@ -167,6 +186,13 @@ class PoseTracker:
                 self.confirmed = (self._unconfirmed_travel >= self.config.confirm_travel
                                   and self._unconfirmed_matches >= self.config.confirm_matches)
         self._odom = np.array(odom, dtype=np.float64)
+
+    def corrected(self, step: np.ndarray) -> np.ndarray:
+        """An odometry ``step`` (robot frame) with the odometry's systematic errors taken out."""
+        per_metre, per_radian, scale = self.odometry.bias()
+        travel = np.copysign(np.hypot(step[0], step[1]), step[0])  # negative backwards, as decompose
+        return np.array([step[0] * (1.0 + scale), step[1] * (1.0 + scale),
+                         step[2] + per_metre * travel + per_radian * step[2]])
 
     def _bridge(self, step: np.ndarray) -> np.ndarray:
         """The odometry's step, or the motion it missed in a stall, less what a catch-up repeats."""
@@ -206,6 +232,7 @@ class PoseTracker:
         self.fit = result.fit
         self.occluded = False
         if result.fit >= needed:
+            self._calibrate(result)
             self.pose, self.misses = result.pose, 0
             self.usual_fit = usual + cfg.usual_rate * (result.fit - usual)
             self._moved[:] = 0.0
@@ -217,6 +244,13 @@ class PoseTracker:
         if self.misses >= cfg.patience or (not self.confirmed and self.usual_fit < self._confirm_fit):
             self.lose()
         return result
+
+    def _calibrate(self, result: MatchResult) -> None:
+        """Record the odometry's error since the last accepted match, if this one fits well."""
+        moved = np.array(decompose(0.0, 0.0, 0.0, *self._raw_since))
+        if self._anchor is not None and result.fit >= self.config.calibration_fit and abs(moved[1]) > 0.02:
+            self.odometry.observe(moved, relative(compose(self._anchor, self._raw_since), result.pose))
+        self._anchor, self._raw_since = result.pose, np.zeros(3)
 
     def _penalized(self, result: MatchResult) -> float:
         """A match's fit less the fallback search's cost of its offset from the prediction."""
@@ -262,6 +296,7 @@ class PoseTracker:
         self._confirm_fit = self.config.start_fit if confirm_fit is None else confirm_fit
         usual = self.usual_fit if confirmed and self.confirmed and self.usual_fit is not None else result.fit
         self.pose, self.fit, self.usual_fit, self.misses = result.pose, result.fit, usual, 0
+        self._anchor, self._raw_since = result.pose, np.zeros(3)
         self.occluded = False
         self._moved[:] = 0.0
         self._unconfirmed_travel = 0.0
@@ -275,11 +310,13 @@ class PoseTracker:
         self.usual_fit = None
         self.misses = 0
         self.occluded = False
+        self._anchor = None
         self._moved[:] = 0.0
         self.confirmed = True
 
     def lose(self) -> None:
         self.pose = None
+        self._anchor = None
         self.misses = 0
         self.occluded = False
         self.confirmed = False

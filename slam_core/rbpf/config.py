@@ -105,7 +105,7 @@ class RBPFConfig:
     ``calibration_*``: the odometry's errors measured by the last ``calibration_window`` good
     matches calibrate the draws of particles that do not match, once there are
     ``calibration_min_samples`` of them, their noise at least ``calibration_min_scale`` of the
-    motion model's (:mod:`slam_core.rbpf.odometry_calibration`);
+    motion model's (:mod:`slam_core.odometry_calibration`);
     ``loop_closure``: the back end that closes loops on the best particle's trajectory
     after a log (:mod:`slam_core.graph.loop_closure`)."""
 

@@ -30,10 +30,10 @@ from slam_core.estimator import Estimate
 from slam_core.geometry import compose, mean_pose, relative, wrap_angle
 from slam_core.motion_model import decompose
 from slam_core.occupancy_grid import OccupancyGrid
+from slam_core.odometry_calibration import OdometryCalibration
 from slam_core.rbpf.config import RBPFConfig
 from slam_core.rbpf.correlative import likelihood_window, search
 from slam_core.rbpf.laser_mount import LaserMount
-from slam_core.rbpf.odometry_calibration import OdometryCalibration
 from slam_core.rbpf.proposal import improved_proposal, match_starts
 from slam_core.rbpf.scan_matcher import P_OCCUPIED, beam_rows, match, pose_likelihood
 from slam_core.rbpf.tiled_map import TiledMaps

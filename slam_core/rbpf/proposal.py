@@ -116,7 +116,7 @@ def improved_proposal(tables, lo, hits, origin_x, origin_y, resolution, prev, st
     ``starts`` are the poses the matching starts from, ``motion`` is
     ``(rot1, trans, rot2)`` of the odometry, ``noise`` standard normal ``(n, 3)``. A particle
     that does not match is drawn around ``fallback_motion`` with the noise of ``fallback_alphas``
-    (the odometry as calibrated, :mod:`slam_core.rbpf.odometry_calibration`). Particles are split
+    (the odometry as calibrated, :mod:`slam_core.odometry_calibration`). Particles are split
     over threads (:func:`slam_core.jit.split`).
     """
     split(_propose, prev.shape[0], tables, lo, hits, origin_x, origin_y, resolution, prev, starts, motion,

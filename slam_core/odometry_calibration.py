@@ -23,6 +23,10 @@ errors and gives, for a draw without a match:
   ``min_scale`` of it.
 
 Until ``min_samples`` errors are known, the motion and the model stay as they are.
+
+Localization in a finished map (:mod:`slam_core.localization.tracking`) fits the same systematic
+errors from its accepted matches and predicts with the corrected motion: a robot whose wheels
+over-report travel otherwise runs ahead down a corridor, where a scan cannot pull it back.
 """
 
 from __future__ import annotations
