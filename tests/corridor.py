@@ -22,10 +22,15 @@ def scan_at(pose, rng) -> Scan:
     return Scan(ANGLES, cast(pose, ANGLES, CORRIDOR) + rng.normal(0.0, 0.01, len(ANGLES)), 0.05, 30.0)
 
 
-def corridor_map() -> OccupancyGrid:
+def mapped_along(scan_fn, length: float) -> OccupancyGrid:
+    """The map of scans ``scan_fn(pose, rng)`` taken every 0.5 m along the x axis, both ways."""
     grid = OccupancyGrid(0.05)
     rng = np.random.default_rng(0)
-    for x in np.arange(0.0, 40.0, 0.5):
+    for x in np.arange(0.0, length, 0.5):
         for th in (0.0, np.pi):
-            grid.integrate(scan_at((x, 0.0, th), rng), np.array([x, 0.0, th]))
+            grid.integrate(scan_fn((x, 0.0, th), rng), np.array([x, 0.0, th]))
     return grid
+
+
+def corridor_map() -> OccupancyGrid:
+    return mapped_along(scan_at, 40.0)

@@ -11,8 +11,8 @@ from synthetic_room import cast
 
 from slam_core.geometry import compose
 from slam_core.localization import MclConfig, MonteCarloLocalizer
-from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.scan import Scan
+from tests.corridor import mapped_along
 
 SCALE = 1.05  # the odometry reports 5 % more travel than the robot makes
 STEP = 0.2
@@ -32,18 +32,9 @@ def scan_at(pose, rng) -> Scan:
     return Scan(ANGLES, np.minimum(ranges, RANGE), 0.05, RANGE)
 
 
-def world_map() -> OccupancyGrid:
-    grid = OccupancyGrid(0.05)
-    rng = np.random.default_rng(0)
-    for x in np.arange(0.0, 42.0, 0.5):
-        for th in (0.0, np.pi):
-            grid.integrate(scan_at((x, 0.0, th), rng), np.array([x, 0.0, th]))
-    return grid
-
-
 @pytest.fixture(scope="module")
 def grid():
-    return world_map()
+    return mapped_along(scan_at, 42.0)
 
 
 def drive(grid, config: MclConfig, seed: int):
