@@ -95,5 +95,14 @@ def run(args) -> int:
         print(f"first localized at scan {result.first_localized} "
               f"({result.seconds_to_localized:.1f} s of log time)")
     print(f"localized rate: {rate:.1f}% of scans; lost {lost} times")
+    odo = result.odometry
+    measured = odo.get("errors_measured", 0)
+    if measured >= config.tracking.calibration_min:
+        fitted = min(measured, config.tracking.calibration_window)
+        print(f"odometry as the last {fitted} of {measured} matches measured it: travel scale error "
+              f"{100 * odo['translation_scale_error']:+.1f} %, heading drift "
+              f"{odo['heading_drift_deg_per_m']:+.2f} deg/m")
+    else:
+        print(f"odometry: {measured} matches measured it, too few to calibrate")
     print(f"wrote {traj}, {png}")
     return 0

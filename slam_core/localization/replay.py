@@ -26,6 +26,8 @@ class ReplayRun:
     wall_seconds: float = 0.0
     update_seconds: list[float] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
+    #: The odometry's systematic error as the tracker's matches measured it (``OdometryCalibration.summary``).
+    odometry: dict = field(default_factory=dict)
 
 
 def replay_log(log_path, grid: OccupancyGrid, config: MclConfig | None = None, initial_pose=None,
@@ -63,6 +65,7 @@ def replay_log(log_path, grid: OccupancyGrid, config: MclConfig | None = None, i
     except TruncatedLogError as exc:
         run.warnings.append(str(exc))
     run.wall_seconds = time.perf_counter() - started
+    run.odometry = mcl.tracker.odometry.summary()
     run.trajectory = Trajectory(stamps, np.array(poses).reshape(-1, 3))
     run.localized = np.array(flags, bool)
     run.particles = np.array(counts, int)
