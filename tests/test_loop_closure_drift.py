@@ -1,6 +1,8 @@
 """Loops closed after large drift, and none closed between places that only look alike:
 the back end on large hand-made worlds against their ground truth."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -140,3 +142,19 @@ def test_a_loop_edge_found_shrinks_the_window_to_the_drift_since(a, b_after):
     assert chain[0] > 10.0 * major  # the chain alone: metres
     assert 0.9 * major < linear[0] < 1.25 * major, (linear, major)
     assert drift.since_loops(np.array([a]), b, np.zeros((0, 2), np.int64))[0] == chain[0]
+
+
+def test_a_search_that_found_nothing_is_not_repeated_from_where_it_was(ring):
+    """The second round searches again from the optimised poses; a pair that the first round's
+    search found nothing for, and that the solve did not move, is not searched again. Here the
+    second lap's scans are clutter that matches nothing, and the poses are the truth."""
+    truth, scans = ring
+    lap = len(truth) - 50
+    rng = np.random.default_rng(5)
+    clutter = [Scan(ANGLES, rng.uniform(0.5, 3.0, len(ANGLES)), 0.05, 30.0) for _ in range(50)]
+    one, _ = close_loops(truth, scans[:lap] + clutter, dataclasses.replace(CONFIG, rounds=1))
+    two, _ = close_loops(truth, scans[:lap] + clutter, dataclasses.replace(CONFIG, rounds=2))
+    assert one.candidates_tried > 50  # the clutter's updates were searched once, in vain
+    repeated = two.candidates_tried - one.candidates_tried  # every search repeated: 49
+    assert repeated <= 0.1 * one.candidates_tried, (one.stats(), two.stats())
+    assert two.loop_pairs == one.loop_pairs

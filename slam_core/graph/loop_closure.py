@@ -18,7 +18,9 @@ trajectory at its filter updates and
 3. optimises the pose graph of the loop edges and the chain of the filter's own
    steps (:mod:`slam_core.graph.pose_graph`, Huber-robust on loop edges), drops
    loop edges that still disagree, optimises again; the next round searches
-   again from the optimised poses, which finds the closures the drift hid.
+   again from the optimised poses, which finds the closures the drift hid (a pair
+   whose search found nothing is searched again only if the optimisation moved
+   it by a cell or an angular step).
 
 A trajectory that keeps growing (the live back end) is solved again with the
 :class:`LoopMemory` of its last solve: the loop edges found stay, only the new
@@ -267,6 +269,18 @@ def close_loops(poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig 
                        beam_rows(scans[q], min(matcher.coarse_range, reach), matcher.coarse_beams)[:, :2])
         return rows[q]
 
+    failed: dict[tuple[int, int], np.ndarray] = {}  # (submap, update): where a narrow search found nothing
+
+    def failed_before(s: int, q: int, estimate: np.ndarray) -> bool:
+        """Whether a narrow search of update ``q`` in submap ``s`` found nothing from within a cell and
+        an angular step of where the estimate now puts it (it would score nearly the same poses)."""
+        before = failed.get((s, q))
+        if before is None:
+            return False
+        now = relative(estimate[submaps.anchors[s]], estimate[q])
+        return bool(np.hypot(now[0] - before[0], now[1] - before[1]) < resolution
+                    and abs(now[2] - before[2]) < matcher.coarse_angular_step)
+
     def try_submap(s: int, queries: list[tuple[int, float, float]], estimate: np.ndarray):
         sub = submaps[s]
         found = []
@@ -279,6 +293,8 @@ def close_loops(poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig 
             accept = config.accept_fit if linear <= config.linear_window else config.wide_accept_fit
             if hit is not None and hit[2] >= accept:
                 found.append((q, relative(sub.anchor_pose, hit[0]), hit[1] * config.information_scale))
+            elif linear <= config.linear_window:
+                failed[(s, q)] = relative(estimate[sub.anchor], estimate[q])
         return s, found
 
     def search_and_solve(pairs: dict[int, list[tuple[int, float, float]]], estimate: np.ndarray):
@@ -309,7 +325,7 @@ def close_loops(poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig 
         pairs: dict[int, list[tuple[int, float, float]]] = {}
         for q in range(first, n):
             for s in _candidates(q, estimate, path, submaps, config):
-                if (int(submaps.anchors[s]), q) not in edges:
+                if (int(submaps.anchors[s]), q) not in edges and not failed_before(s, q, estimate):
                     pairs.setdefault(s, []).append((q, *narrow))
         estimate = search_and_solve(pairs, estimate)
         linked = {q for _, q in edges}
