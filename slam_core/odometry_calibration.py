@@ -83,6 +83,14 @@ class OdometryCalibration:
         rot1, trans, rot2 = motion
         return np.array([rot1, trans * (1.0 + scale), rot2 + per_metre * trans + per_radian * (rot1 + rot2)])
 
+    def corrected_step(self, step: np.ndarray) -> np.ndarray:
+        """An odometry ``step`` ``(x, y, theta)`` in the robot frame with the systematic errors taken
+        out (as :meth:`corrected`, without decomposing a step too short to have a direction)."""
+        per_metre, per_radian, scale = self.bias()
+        travel = np.copysign(np.hypot(step[0], step[1]), step[0])  # negative backwards, as decompose
+        return np.array([step[0] * (1.0 + scale), step[1] * (1.0 + scale),
+                         step[2] + per_metre * travel + per_radian * step[2]])
+
     def fallback_alphas(self) -> np.ndarray:
         """The model's alphas with its noise scaled: the rotation pair by the square of the rotation
         scale, the translation pair by the square of the translation scale."""

@@ -189,10 +189,7 @@ class PoseTracker:
 
     def corrected(self, step: np.ndarray) -> np.ndarray:
         """An odometry ``step`` (robot frame) with the odometry's systematic errors taken out."""
-        per_metre, per_radian, scale = self.odometry.bias()
-        travel = np.copysign(np.hypot(step[0], step[1]), step[0])  # negative backwards, as decompose
-        return np.array([step[0] * (1.0 + scale), step[1] * (1.0 + scale),
-                         step[2] + per_metre * travel + per_radian * step[2]])
+        return self.odometry.corrected_step(step)
 
     def _bridge(self, step: np.ndarray) -> np.ndarray:
         """The odometry's step, or the motion it missed in a stall, less what a catch-up repeats."""
