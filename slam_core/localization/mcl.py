@@ -32,10 +32,11 @@ there rather than anywhere, and on each filter update a new track is tried at th
 the scan fits as well as the lost track's usually did, see :meth:`PoseTracker.try_resume`) or
 at the converged cloud's; the new track must confirm itself like any other before the robot is
 localized again (while it is not confirmed, the search goes on from its pose if it is dropped).
-Only after ``recover_travel`` metres without a track, or when the scan that lost the track fits
-the map well far from that pose (a kidnapping), does the filter start over globally. A confirmed
-track that a converged cloud moved more than ``switch_xy`` must confirm itself again; dropped
-before it does, it is lost like a confirmed one (searched for around its pose).
+Only after ``recover_travel`` metres without a track, or when the scan that lost the track
+contradicts the map around that pose and fits it well far from there (a kidnapping), does the
+filter start over globally. A confirmed track that a converged cloud moved more than ``switch_xy``
+must confirm itself again; dropped before it does, it is lost like a confirmed one (searched for
+around its pose).
 """
 
 from __future__ import annotations
@@ -433,11 +434,18 @@ class MonteCarloLocalizer:
                     self.global_localization()
 
     def _fits_elsewhere(self, scan: Scan, points: np.ndarray, pose: np.ndarray, travel: float) -> bool:
-        """Whether the scan fits the map well (``start_fit``) at one of the best poses of a global
-        search (refined by the matcher) that a restart around ``pose`` after ``travel`` m would not
-        consider (more than three of its standard deviations off): the robot was carried off,
-        rather than the map explaining too little of what it sees."""
+        """Whether the robot was carried off, rather than the map explaining too little of what it
+        sees: the scan contradicts the map near ``pose`` (at the best pose of the tracker's fallback
+        search around it, more than ``max_through`` of its beams pass through walls: a track that
+        slid off the walls, or people in front of the laser, do not) and it fits the map well
+        (``start_fit``) at one of the best poses of a global search (refined by the matcher) that a
+        restart around ``pose`` after ``travel`` m would not consider (more than three of its
+        standard deviations off). A look-alike that fits elsewhere is no kidnapping by itself."""
         cfg = self.config
+        t = cfg.tracking
+        near = self.tracker.matcher.search(pose, points, t.search_xy, t.search_theta, t.search_step)
+        if self.tracker.matcher.seen_through(near.pose, points, cfg.laser_pose[:2]) <= t.max_through:
+            return False
         xy, theta = self._recover_spread(travel)
         for candidate in self._global_best(scan):
             match = self.tracker.matcher.match(candidate, points)
