@@ -8,6 +8,9 @@ import numpy as np
 
 from slam_core.localization import MclConfig, MonteCarloLocalizer
 from slam_core.localization.tracking import tracking_points
+from slam_core.sim.ground_truth import ground_truth_map
+from slam_core.sim.lidar import Lidar
+from slam_core.sim.world import load_world
 from tests.corridor import corridor_map, scan_at
 
 CONFIG = MclConfig(min_particles=300, max_particles=5000)
@@ -41,3 +44,16 @@ def test_a_scan_seen_from_elsewhere_is_a_kidnapping():
         scan = scan_at(carried, rng)
         points = tracking_points(scan, CONFIG.laser_pose, 180, 30.0)
         assert mcl._fits_elsewhere(scan, points, np.array([x, 0.0, 0.0]), TRAVEL)
+
+
+def test_a_small_room_seen_from_a_large_one_is_a_kidnapping():
+    """Carried from the living room into the bathroom: the bathroom's short beams end in the living
+    room's free space, through no wall, but the map explains too little of them there."""
+    world = load_world("flat")
+    lidar = Lidar(world)
+    mcl = MonteCarloLocalizer(ground_truth_map(world, 0.05, min_height=0.2), CONFIG,
+                              rng=np.random.default_rng(0), initial_pose=(8.3, 4.0, 0.5))
+    for seed, bathroom in enumerate([(5.2, 6.0, 0.5), (5.4, 5.5, 2.0), (4.9, 6.6, -1.0)]):
+        scan = lidar.scan(np.array(bathroom), np.random.default_rng(seed))
+        points = tracking_points(scan, CONFIG.laser_pose, 180, 30.0)
+        assert mcl._fits_elsewhere(scan, points, np.array([8.3, 4.0, bathroom[2]]), TRAVEL)

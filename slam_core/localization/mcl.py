@@ -435,16 +435,18 @@ class MonteCarloLocalizer:
 
     def _fits_elsewhere(self, scan: Scan, points: np.ndarray, pose: np.ndarray, travel: float) -> bool:
         """Whether the robot was carried off, rather than the map explaining too little of what it
-        sees: the scan contradicts the map near ``pose`` (at the best pose of the tracker's fallback
-        search around it, more than ``max_through`` of its beams pass through walls: a track that
-        slid off the walls, or people in front of the laser, do not) and it fits the map well
-        (``start_fit``) at one of the best poses of a global search (refined by the matcher) that a
-        restart around ``pose`` after ``travel`` m would not consider (more than three of its
-        standard deviations off). A look-alike that fits elsewhere is no kidnapping by itself."""
+        sees: the scan does not fit the map near ``pose`` (at the best pose of the tracker's fallback
+        search around it, the map explains less than ``min_fit`` of it, or more than ``max_through``
+        of its beams pass through walls; a track that slid off the walls, or a scan the map explains
+        in part, do neither) and it fits the map well (``start_fit``) at one of the best poses of a
+        global search (refined by the matcher) that a restart around ``pose`` after ``travel`` m
+        would not consider (more than three of its standard deviations off). A look-alike that fits
+        elsewhere is no kidnapping by itself."""
         cfg = self.config
         t = cfg.tracking
         near = self.tracker.matcher.search(pose, points, t.search_xy, t.search_theta, t.search_step)
-        if self.tracker.matcher.seen_through(near.pose, points, cfg.laser_pose[:2]) <= t.max_through:
+        if near.fit >= t.min_fit and self.tracker.matcher.seen_through(near.pose, points,
+                                                                        cfg.laser_pose[:2]) <= t.max_through:
             return False
         xy, theta = self._recover_spread(travel)
         for candidate in self._global_best(scan):
