@@ -1,8 +1,9 @@
 """A track lost where the map explains the scan badly (people, furniture moved, a track that slid
 off the walls) is not a kidnapping merely because a look-alike elsewhere fits: only if the scan also
-contradicts the map around the lost pose (its beams pass through walls there). Seen on mit-csail:
-the track slid 0.3 m sideways and was lost; the scan fitted a corridor 9 m away, and the global
-restart that followed published poses 10-23 m off for 45 scans."""
+does not fit the map around the lost pose (its beams pass through walls there, or the map explains
+too little of it there). Seen on mit-csail: the track slid 0.3 m sideways and was lost; the scan
+fitted a corridor 9 m away, and the global restart that followed published poses 10-23 m off for
+45 scans."""
 
 import numpy as np
 

@@ -443,14 +443,14 @@ class MonteCarloLocalizer:
         would not consider (more than three of its standard deviations off). A look-alike that fits
         elsewhere is no kidnapping by itself."""
         cfg = self.config
-        t = cfg.tracking
-        near = self.tracker.matcher.search(pose, points, t.search_xy, t.search_theta, t.search_step)
-        if near.fit >= t.min_fit and self.tracker.matcher.seen_through(near.pose, points,
-                                                                        cfg.laser_pose[:2]) <= t.max_through:
+        t, matcher = cfg.tracking, self.tracker.matcher
+        near = matcher.search(pose, points, t.search_xy, t.search_theta, t.search_step)
+        through = matcher.seen_through(near.pose, points, cfg.laser_pose[:2])
+        if near.fit >= t.min_fit and through <= t.max_through:
             return False
         xy, theta = self._recover_spread(travel)
         for candidate in self._global_best(scan):
-            match = self.tracker.matcher.match(candidate, points)
+            match = matcher.match(candidate, points)
             off = relative(pose, match.pose)
             if match.fit >= cfg.tracking.start_fit and (np.hypot(off[0], off[1]) > 3.0 * xy
                                                         or abs(off[2]) > 3.0 * theta):
