@@ -445,15 +445,15 @@ class MonteCarloLocalizer:
         cfg = self.config
         t, matcher = cfg.tracking, self.tracker.matcher
         near = matcher.search(pose, points, t.search_xy, t.search_theta, t.search_step)
-        through = matcher.seen_through(near.pose, points, cfg.laser_pose[:2])
-        if near.fit >= t.min_fit and through <= t.max_through:
+        if near.fit >= t.min_fit and (matcher.seen_through(near.pose, points, cfg.laser_pose[:2])
+                                      <= t.max_through):
             return False
         xy, theta = self._recover_spread(travel)
         for candidate in self._global_best(scan):
             match = matcher.match(candidate, points)
             off = relative(pose, match.pose)
-            if match.fit >= cfg.tracking.start_fit and (np.hypot(off[0], off[1]) > 3.0 * xy
-                                                        or abs(off[2]) > 3.0 * theta):
+            if match.fit >= t.start_fit and (np.hypot(off[0], off[1]) > 3.0 * xy
+                                             or abs(off[2]) > 3.0 * theta):
                 return True
         return False
 
