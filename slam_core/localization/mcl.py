@@ -15,7 +15,8 @@ reach of that track's pose moved on by the odometry, else that pose; else the we
 the heaviest particle cluster. Along a confirmed track, and from a lost
 track to the one that resumes it, and to a confirmed track's move by the cloud, it moves
 smoothly: per scan its position moves at most
-``smooth_xy`` farther than the odometry moved (a correction is spread over the next scans)
+``smooth_xy`` farther than the odometry moved, or while it is frozen may have moved (a correction
+is spread over the next scans)
 (a jump only when a track starts after a global start, which is not yet *localized*). The
 filter runs on its own and checks the track: a track starts from a known pose or from the
 converged main cluster, and moves there when the converged cloud disagrees with it and
@@ -303,7 +304,8 @@ class MonteCarloLocalizer:
     def _publish(self, odom: np.ndarray) -> None:
         """Move the published position towards the confirmed track, or while the filter searches
         around a lost track towards a new track or else :meth:`_searching_pose`, at most
-        ``smooth_xy`` farther than the odometry moved since the previous scan; any other track
+        ``smooth_xy`` farther than the odometry moved since the previous scan (or, while it is
+        frozen, may have moved: :attr:`PoseTracker.unseen_step`); any other track
         (after a global start) is published as it is."""
         t = self.tracker
         smooth = self._lost is not None or (t.tracking and (t.confirmed or self._switched))
@@ -317,7 +319,8 @@ class MonteCarloLocalizer:
         else:
             step = target[:2] - self._published
             dist = float(np.hypot(step[0], step[1]))
-            limit = float(np.hypot(*(odom[:2] - self._published_odom[:2]))) + self.config.smooth_xy
+            moved = float(np.hypot(*(odom[:2] - self._published_odom[:2]))) + t.unseen_step
+            limit = moved + self.config.smooth_xy
             self._published = self._published + step * min(1.0, limit / dist if dist > 0 else 1.0)
         self._published_odom = odom
 

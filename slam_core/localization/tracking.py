@@ -9,15 +9,21 @@ does the former on every scan:
    odometry's systematic errors (travel scale, heading drift per metre and per radian turned:
    :mod:`slam_core.odometry_calibration`) that the accepted matches fitting at least
    ``calibration_fit`` measured since the last one (a robot whose wheels over-report travel runs
-   ahead along a corridor where the scan cannot pull it back). An odometry
-   that freezes right after moving (a stall: less than ``stall_xy`` and ``stall_theta``
-   after a step of at least ``stall_min_step``) has not seen the robot stop, which no robot
-   does from speed within one scan: the prediction goes on at the speed before the freeze
-   (its last step), for up to ``stall_travel`` metres. When the odometry catches up, the step it reports holds
-   the motion already predicted, which is taken off it (down to the speed before the freeze);
+   ahead along a corridor where the scan cannot pull it back). An odometry whose position
+   freezes (a *stall*: steps shorter than ``stall_xy``) may not have seen the robot stop.
+   While its heading is frozen too (turning less than ``stall_theta``), right after a step of
+   at least ``stall_min_step`` (no robot stops from speed within one scan) the prediction goes
+   on with that step, for up to ``stall_travel`` metres. The step that ends a stall *catches
+   up* when it is longer than ``catch_up`` times the odometry's mean step (its running mean
+   over the steps that moved, rate ``speed_rate``; no robot doubles its speed within a scan):
+   it holds all the motion since the stall began, which the matches have partly followed, so
+   the prediction is the track's pose where the stall began moved by that motion;
 2. *match*: :class:`ScanToMapMatcher` refines it against the map, held to the
    prediction by a prior whose spread grows with the odometry's motion since the
-   last accepted match (a robot that stands still does not slide along a corridor);
+   last accepted match (a robot that stands still does not slide along a corridor), and
+   for the first ``stall_scans`` scans of a stall with a frozen heading by the odometry's
+   mean step (and mean turn) per scan: the scans, not the frozen odometry, tell whether the
+   robot stopped;
 3. *judge*: the match is accepted when the map explains at least ``min_fit`` of
    the beams (see :mod:`slam_core.localization.scan_to_map`) and ``keep_ratio``
    of the track's usual fit. Below that, or when the fit drops by
@@ -77,13 +83,18 @@ class TrackingConfig:
     confirm_travel: float = 3.0
     #: ... and this many accepted matches (a log with a scan per metre needs more than 3 of them).
     confirm_matches: int = 10
-    #: Odometry stalls (see the module doc): a step shorter than ``stall_xy`` (m) turning less than
-    #: ``stall_theta`` (rad) right after a step of ``stall_min_step`` (m) is a freeze; the prediction
-    #: goes on with that step for up to ``stall_travel`` (m).
+    #: Odometry stalls (see the module doc): steps shorter than ``stall_xy`` (m), their heading
+    #: frozen when turning less than ``stall_theta`` (rad); bridged right after a step of
+    #: ``stall_min_step`` (m) for up to ``stall_travel`` (m); the prior widens for the first
+    #: ``stall_scans`` scans; the odometry's mean step is a running mean (rate ``speed_rate``), and
+    #: a step ``catch_up`` times longer ends a stall by catching up.
     stall_xy: float = 0.01
     stall_theta: float = 0.1
     stall_min_step: float = 0.05
     stall_travel: float = 1.0
+    stall_scans: int = 10
+    speed_rate: float = 0.2
+    catch_up: float = 2.0
     #: Rejected scans in a row after which the track is lost.
     patience: int = 5
     #: Occlusion: the least fit, the largest fraction of beams seen through a wall, and the odometry
@@ -153,7 +164,10 @@ class PoseTracker:
         self.occluded = False
         self._odom: np.ndarray | None = None
         self._last_step: np.ndarray | None = None  # the last odometry step that moved (robot frame)
-        self._bridged = 0.0  # metres predicted through a stall that the odometry has not caught up
+        self._speed = np.zeros(2)  # the odometry's mean step (m, rad) while it moves
+        self._stalled = 0  # steps the odometry's position has been frozen for
+        self._frozen = False  # the last step was frozen in heading too
+        self._stall_start: tuple[np.ndarray, np.ndarray] | None = None  # the track and odometry then
         self._moved = np.zeros(2)  # odometry distance and turn since the last accepted match
         # the odometry's systematic error (its noise scales, which need a motion model, are not used)
         self.odometry = OdometryCalibration(OdometryMotionModel().alphas, self.config.calibration_window,
@@ -175,38 +189,74 @@ class PoseTracker:
         return float(self._moved[0])
 
     def predict(self, odom: np.ndarray) -> None:
-        """Move the tracked pose by the odometry since the previous call."""
-        if self.pose is not None and self._odom is not None:
-            raw = self._bridge(relative(self._odom, odom))
-            self._raw_since = compose(self._raw_since, raw)
-            step = self.corrected(raw)
-            self.pose = compose(self.pose, step)
-            self._moved += (np.hypot(step[0], step[1]), abs(step[2]))
-            if not self.confirmed:
-                self._unconfirmed_travel += float(np.hypot(step[0], step[1]))
-                self.confirmed = (self._unconfirmed_travel >= self.config.confirm_travel
-                                  and self._unconfirmed_matches >= self.config.confirm_matches)
-        self._odom = np.array(odom, dtype=np.float64)
+        """Move the tracked pose by the odometry since the previous call (see the module doc)."""
+        odom = np.array(odom, dtype=np.float64)
+        if self._odom is not None:
+            raw = relative(self._odom, odom)
+            caught_up = self._stall_start is not None and self._caught_up(raw)
+            stalled = self._stall_step(raw)
+            if self.pose is not None:
+                previous = self.pose
+                if caught_up and not stalled:
+                    start, start_odom = self._stall_start
+                    moved = self.corrected(relative(start_odom, odom))
+                    self.pose = compose(start, moved)
+                    self._anchor = None  # the odometry's motion since the last match is not known
+                else:
+                    raw = self._bridge(raw)
+                    self._raw_since = compose(self._raw_since, raw)
+                    moved = self.corrected(raw)
+                    self.pose = compose(self.pose, moved)
+                self._moved += (np.hypot(moved[0], moved[1]), abs(moved[2]))
+                if not self.confirmed:
+                    self._unconfirmed_travel += float(np.hypot(*(self.pose[:2] - previous[:2])))
+                    self.confirmed = (self._unconfirmed_travel >= self.config.confirm_travel
+                                      and self._unconfirmed_matches >= self.config.confirm_matches)
+            if not stalled:
+                self._stall_start = None
+        self._odom = odom
 
     def corrected(self, step: np.ndarray) -> np.ndarray:
         """An odometry ``step`` (robot frame) with the odometry's systematic errors taken out."""
         return self.odometry.corrected_step(step)
 
-    def _bridge(self, step: np.ndarray) -> np.ndarray:
-        """The odometry's step, or the motion it missed in a stall, less what a catch-up repeats."""
+    def _stall_step(self, step: np.ndarray) -> bool:
+        """Whether the odometry's ``step`` is frozen; counts the stall, and where it began."""
         cfg = self.config
         moved = float(np.hypot(step[0], step[1]))
+        self._frozen = moved < cfg.stall_xy and abs(step[2]) < cfg.stall_theta
+        if moved >= cfg.stall_xy:
+            self._stalled = 0
+            self._speed += cfg.speed_rate * (np.array([moved, abs(step[2])]) - self._speed)
+            return False
+        if self._stalled == 0 and self.pose is not None:
+            self._stall_start = (self.pose.copy(), self._odom)
+        self._stalled += 1
+        return True
+
+    def _stall_scans(self) -> int:
+        """Scans the odometry has been frozen for, while that may be a stall (``stall_scans``), else 0."""
+        return self._stalled if self._frozen and self._stalled <= self.config.stall_scans else 0
+
+    @property
+    def unseen_step(self) -> float:
+        """How far (m) the robot may have moved since the previous scan unreported: in a stall's
+        first ``stall_scans`` scans the odometry's mean step, else 0."""
+        return float(self._speed[0]) if self._stall_scans() else 0.0
+
+    def _caught_up(self, step: np.ndarray) -> bool:
+        """Whether the step that ends a stall holds the motion the stall missed: longer than
+        ``catch_up`` times the odometry's mean step (no robot doubles its speed within a scan)."""
+        return float(np.hypot(step[0], step[1])) > self.config.catch_up * self._speed[0]
+
+    def _bridge(self, step: np.ndarray) -> np.ndarray:
+        """The odometry's step, or in a stall (heading frozen too) right after moving, the step before it."""
+        cfg = self.config
         last = self._last_step
         speed = 0.0 if last is None else float(np.hypot(last[0], last[1]))
-        if (moved < cfg.stall_xy and abs(step[2]) < cfg.stall_theta and speed >= cfg.stall_min_step
-                and self._bridged + speed <= cfg.stall_travel):
-            self._bridged += speed - moved
+        if self._frozen and speed >= cfg.stall_min_step and self._stalled * speed <= cfg.stall_travel:
             return np.array([last[0], last[1], step[2]])
-        if self._bridged > 0.0 and moved >= cfg.stall_xy:
-            keep = max(moved - self._bridged, min(moved, speed))
-            self._bridged = 0.0
-            step = np.array([step[0] * keep / moved, step[1] * keep / moved, step[2]])
-        if moved >= cfg.stall_xy:
+        if np.hypot(step[0], step[1]) >= cfg.stall_xy:
             self._last_step = step
         return step
 
@@ -217,8 +267,10 @@ class PoseTracker:
             return None
         cfg = self.config
         dist, turn = self._moved
-        prior = prior_weights(cfg.prior_xy + cfg.prior_xy_per_m * dist + cfg.prior_xy_per_rad * turn,
-                              cfg.prior_theta + cfg.prior_theta_per_m * dist + cfg.prior_theta_per_rad * turn)
+        stall_xy, stall_theta = self._speed * self._stall_scans()
+        prior = prior_weights(
+            cfg.prior_xy + cfg.prior_xy_per_m * dist + cfg.prior_xy_per_rad * turn + stall_xy,
+            cfg.prior_theta + cfg.prior_theta_per_m * dist + cfg.prior_theta_per_rad * turn + stall_theta)
         result = self.matcher.match(self.pose, points, prior)
         usual = result.fit if self.usual_fit is None else self.usual_fit
         needed = max(cfg.min_fit, cfg.keep_ratio * usual)
@@ -293,6 +345,9 @@ class PoseTracker:
             return False
         self._confirm_fit = self.config.start_fit if confirm_fit is None else confirm_fit
         usual = self.usual_fit if confirmed and self.confirmed and self.usual_fit is not None else result.fit
+        if self._stall_start is not None and self.pose is not None:  # moved where the stall began too
+            start, start_odom = self._stall_start
+            self._stall_start = (compose(result.pose, relative(self.pose, start)), start_odom)
         self.pose, self.fit, self.usual_fit, self.misses = result.pose, result.fit, usual, 0
         self._anchor, self._raw_since = result.pose, np.zeros(3)
         self.occluded = False
@@ -309,12 +364,14 @@ class PoseTracker:
         self.misses = 0
         self.occluded = False
         self._anchor = None
+        self._stall_start = None
         self._moved[:] = 0.0
         self.confirmed = True
 
     def lose(self) -> None:
         self.pose = None
         self._anchor = None
+        self._stall_start = None
         self.misses = 0
         self.occluded = False
         self.confirmed = False
