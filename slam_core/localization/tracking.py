@@ -22,8 +22,9 @@ does the former on every scan:
    prediction by a prior whose spread grows with the odometry's motion since the
    last accepted match (a robot that stands still does not slide along a corridor), and
    for the first ``stall_scans`` scans of a stall with a frozen heading by the odometry's
-   mean step (and mean turn) per scan: the scans, not the frozen odometry, tell whether the
-   robot stopped;
+   mean step (and mean turn) times the scans frozen so far (the track may lag by more than
+   one: the reading before a freeze is often stale too): the scans, not the frozen odometry,
+   tell whether the robot stopped;
 3. *judge*: the match is accepted when the map explains at least ``min_fit`` of
    the beams (see :mod:`slam_core.localization.scan_to_map`) and ``keep_ratio``
    of the track's usual fit. Below that, or when the fit drops by
