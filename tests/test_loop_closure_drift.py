@@ -8,7 +8,8 @@ import pytest
 
 from slam_core.geometry import compose, relative, wrap_angle
 from slam_core.graph.config import LoopClosureConfig
-from slam_core.graph.loop_closure import ChainDrift, close_loops, robust_solve
+from slam_core.graph.loop_closure import ChainDrift, close_loops, robust_solve, sparse_step_scales
+from slam_core.rbpf.config import MatcherParams
 from slam_core.scan import Scan
 from tests.large_world import drifted, ring_tour, ring_world, twin_corridors, twin_tour
 from tests.synthetic_room import cast
@@ -51,6 +52,55 @@ def test_a_long_loop_closes_after_metres_of_drift(ring):
     # the narrow search alone (today's window) leaves it open
     narrow, _ = close_loops(bent, scans, LoopClosureConfig(submap_updates=10, wide_every=10 ** 9))
     assert narrow.loop_edges == 0 and distance(narrow.poses[lap:], narrow.poses[:50]).min() > 3.0
+
+
+def thinned(scan: Scan, every: int = 15) -> Scan:
+    """The scan with one beam in ``every`` left (the others no measurement): open ground."""
+    ranges = np.full(len(scan), np.nan)
+    ranges[::every] = scan.ranges[::every]
+    return Scan(scan.angles, ranges, scan.range_min, scan.range_max)
+
+
+def test_a_loop_after_a_stretch_of_sparse_scans_is_searched_as_wide_as_its_heading_drift(ring):
+    """Where the scans hold few echoes, the filter's heading drifts more than the chain's model for
+    full scans allows, and the wide search's window widens there. The same path behind full scans
+    (the control) is beyond the window and stays open."""
+    truth, scans = ring
+    lo, hi = 134, 250  # a 58 m stretch, the second side of the ring
+    steps = relative(truth[:-1], truth[1:])
+    steps[lo:hi, 2] += 0.002  # 13 deg of heading drift over the stretch
+    bent = [truth[0]]
+    for step in steps:
+        bent.append(compose(bent[-1], step))
+    bent = np.array(bent)
+    lap = len(truth) - 50
+    assert distance(truth, bent)[lap:].min() > 10.0
+    sparse = [thinned(s) if lo < k <= hi else s for k, s in enumerate(scans)]  # 24 echoes each
+    result, _ = close_loops(bent, sparse, CONFIG)
+    assert result.loop_edges > 10, result.stats()
+    assert distance(truth, result.poses)[lap:].max() < 0.3
+    assert distance(result.poses[lap:], result.poses[:50]).max() < 0.15
+    control, _ = close_loops(bent, scans, CONFIG)
+    assert control.loop_edges == 0 and distance(control.poses[lap:], control.poses[:50]).min() > 10.0
+
+
+def test_a_sparse_scan_widens_the_heading_noise_of_its_step_by_its_missing_echoes():
+    """``sqrt(max_beams / n)`` for ``n`` echoes within reach, between 1 and the limit a match needs."""
+    matcher = MatcherParams()
+    full = scans_along(ring_tour()[:1], ring_world())[0]
+    rng = np.random.default_rng(3)
+    for n in (0, 5, 20, 45, 90, 179, 180, 360):
+        keep = rng.choice(len(full), n, replace=False)
+        ranges = np.full(len(full), 25.0)  # echoes beyond the 20 m reach
+        ranges[keep] = rng.uniform(0.5, 19.0, n)
+        ranges[rng.choice(len(full), 10)] = np.nan  # a few no measurement at all
+        scan = Scan(full.angles, ranges, 0.05, 30.0)
+        echoes = np.count_nonzero(np.isfinite(ranges) & (ranges <= 20.0))
+        expected = np.sqrt(matcher.max_beams / min(max(echoes, matcher.min_matched_beams), matcher.max_beams))
+        got = sparse_step_scales([full, scan], 20.0, matcher)
+        assert got.shape == (1,)
+        assert got[0] == pytest.approx(expected)
+        assert 1.0 <= got[0] <= np.sqrt(matcher.max_beams / matcher.min_matched_beams)
 
 
 def test_the_search_window_is_the_drift_the_chain_noise_lets_accumulate():
