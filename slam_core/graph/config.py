@@ -30,8 +30,9 @@ class LoopClosureConfig:
     Loops after large drift (:mod:`slam_core.graph.wide_search`): an update with no
     loop edge yet (one in ``wide_every``) also searches old submaps in a window of
     ``window_sigmas`` standard errors of the drift the chain's own noise (above) lets
-    accumulate between them (the heading's random walk swinging the position; in position,
-    only the drift since a loop edge found that ties the two stretches together), up to
+    accumulate between them (the heading's random walk swinging the position, its noise
+    widened where a scan held fewer echoes than the matcher uses; in position, only the
+    drift since a loop edge found that ties the two stretches together), up to
     ``max_linear_window`` / ``max_angular_window``: the ``wide_candidates`` nearest
     whose anchor lies within ``search_radius`` plus that window. The search keeps only
     poses where the correlative score reaches ``wide_min_score`` of its maximum, and

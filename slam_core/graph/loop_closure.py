@@ -431,8 +431,9 @@ def _chain_sigmas(poses: np.ndarray, config: LoopClosureConfig,
 
 class ChainDrift:
     """How far the chain of filter steps alone may have drifted between two updates: its
-    steps' translation noise plus each step's heading noise swung over the path after it;
-    and how far at most once the loop edges found so far tie parts of the chain together."""
+    steps' translation noise plus each step's heading noise (times its ``scales``, when given)
+    swung over the path after it; and how far at most once the loop edges found so far tie
+    parts of the chain together."""
 
     def __init__(self, poses: np.ndarray, path: np.ndarray, config: LoopClosureConfig,
                  scales: np.ndarray | None = None):
