@@ -66,7 +66,7 @@ def test_a_loop_after_a_stretch_of_sparse_scans_is_searched_as_wide_as_its_headi
     full scans allows, and the wide search's window widens there. The same path behind full scans
     (the control) is beyond the window and stays open."""
     truth, scans = ring
-    lo, hi = 134, 250  # a 58 m stretch, the second side of the ring
+    lo, hi = 134, 250  # a 58 m stretch, from the first corner on
     steps = relative(truth[:-1], truth[1:])
     steps[lo:hi, 2] += 0.002  # 13 deg of heading drift over the stretch
     bent = [truth[0]]
