@@ -7,10 +7,12 @@ every beam as :meth:`~slam_core.occupancy_grid.OccupancyGrid.integrate` does, so
 depend on the order of the scans, and a submap (a block of consecutive updates) can be taken out
 and put back from other poses exactly (the counts are integers).
 
-:class:`CountMap` keeps each submap's counts sparse (the cells it touched) with the laser poses it
-was traced from, the sums of all of them in one dense pair of counts, and the log-odds of the touched
-cells. :meth:`CountMap.update` traces again only the submaps whose poses moved (an update by more
-than :data:`MOVE_CELLS` of a cell or :data:`MOVE_RAD`) and the ones that are new or grew.
+:class:`CountMap` keeps the sums of every submap's counts in one dense pair of counts (its grid's
+log-odds are made from them), and of each submap only the laser poses it was traced from and its echoes' hit
+sums (:class:`SubmapEchoes`): so its memory grows with the area mapped, not with the updates.
+:meth:`CountMap.update` traces again only the submaps whose poses moved (an update by more than
+:data:`MOVE_CELLS` of a cell or :data:`MOVE_RAD`) and the ones that are new or grew; a moved
+submap's old counts are traced again from its old poses (the same cells, exactly) and taken out.
 Cells are on the absolute lattice (cell ``(ix, iy)`` spans ``[ix, ix + 1) * resolution``), and
 the dense counts grow in chunks of :data:`~slam_core.occupancy_grid.GROW_CHUNK` cells aligned
 to it, as an :class:`~slam_core.occupancy_grid.OccupancyGrid` started empty does.
@@ -69,15 +71,28 @@ def _count_beams(counts, touched, ix0, iy0, inv, poses, angles, ranges, offsets,
 
 
 @njit
-def _add_counts(counts, log_odds, cells, width, dx, dy, occupied, free, sign, l_occ, l_free, l_min, l_max):
+def _add_counts(counts, cells, width, dx, dy, occupied, free, sign):
     """``counts[iy, ix]`` += ``sign`` * the counts of ``cells`` (flat indices into rows of ``width``,
-    at ``ix - dx, iy - dy``), whose ``log_odds`` follow."""
+    at ``ix - dx, iy - dy``)."""
     for k in range(cells.shape[0]):
         iy, ix = cells[k] // width + dy, cells[k] % width + dx
         counts[iy, ix, OCC] += sign * np.int64(occupied[k])
         counts[iy, ix, FREE] += sign * np.int64(free[k])
-        v = l_occ * counts[iy, ix, OCC] + l_free * counts[iy, ix, FREE]
-        log_odds[iy, ix] = min(max(v, l_min), l_max)
+
+
+@njit
+def clamped_log_odds(occupied, free, l_occ, l_free, l_min, l_max):
+    """A cell's log-odds from its counts of observations (0 for none), clamped once after the sum."""
+    return min(max(l_occ * occupied + l_free * free, l_min), l_max)
+
+
+@njit
+def _log_odds(counts, out, l_occ, l_free, l_min, l_max):
+    """``out[iy, ix]``: the log-odds of ``counts[iy, ix]`` (float32)."""
+    for iy in range(counts.shape[0]):
+        for ix in range(counts.shape[1]):
+            n = counts[iy, ix]
+            out[iy, ix] = clamped_log_odds(n[OCC], n[FREE], l_occ, l_free, l_min, l_max)
 
 
 def _reach(laser_poses: np.ndarray, scans: list[Scan], model: SensorModel, inv: float) -> np.ndarray:
@@ -97,6 +112,27 @@ def _reach(laser_poses: np.ndarray, scans: list[Scan], model: SensorModel, inv: 
     lo = np.floor(np.array([xs.min(), ys.min()]) * inv).astype(np.int64) - 1
     hi = np.floor(np.array([xs.max(), ys.max()]) * inv).astype(np.int64) + 1
     return np.concatenate([lo, hi])
+
+
+@dataclass(frozen=True)
+class SubmapEchoes:
+    """What :class:`CountMap` keeps of a traced submap: the laser poses it was traced from, and its
+    echoes' cells (flat indices ``hit_cells`` into rows of ``width`` cells from the absolute cell
+    ``corner``) with their hit sums ``(h, 3)``."""
+
+    poses: np.ndarray
+    corner: np.ndarray
+    width: int
+    hit_cells: np.ndarray
+    hit_values: np.ndarray
+
+    def moved(self, laser_poses: np.ndarray, resolution: float) -> bool:
+        """Whether ``laser_poses`` are other updates than those traced, or any moved past the tolerance."""
+        if laser_poses.shape != self.poses.shape:
+            return True
+        step = np.abs(laser_poses - self.poses)
+        turn = np.abs((step[:, 2] + np.pi) % (2 * np.pi) - np.pi)
+        return bool(step[:, :2].max() > MOVE_CELLS * resolution or turn.max() > MOVE_RAD)
 
 
 @dataclass(frozen=True)
@@ -143,13 +179,8 @@ class SubmapCounts:
         return cls(laser_poses, corner, nx, lo, hi, touched, found[:, OCC].astype(dtype),
                    found[:, FREE].astype(dtype), hits.cells.astype(np.int32), hits.values)
 
-    def moved(self, laser_poses: np.ndarray, resolution: float) -> bool:
-        """Whether ``laser_poses`` are other updates than those traced, or any moved past the tolerance."""
-        if laser_poses.shape != self.poses.shape:
-            return True
-        step = np.abs(laser_poses - self.poses)
-        turn = np.abs((step[:, 2] + np.pi) % (2 * np.pi) - np.pi)
-        return bool(step[:, :2].max() > MOVE_CELLS * resolution or turn.max() > MOVE_RAD)
+    def echoes(self) -> SubmapEchoes:
+        return SubmapEchoes(self.poses, self.corner, self.width, self.hit_cells, self.hit_values)
 
 
 class CountMap:
@@ -159,10 +190,9 @@ class CountMap:
         if submap_updates < 1:
             raise ValueError(f"submap_updates must be at least 1, got {submap_updates}")
         self.resolution, self.model, self.submap_updates = float(resolution), model, submap_updates
-        self.submaps: list[SubmapCounts] = []
+        self.submaps: list[SubmapEchoes] = []
         self.corner = np.zeros(2, np.int64)  # the absolute cell (ix, iy) of counts[0, 0]
         self.counts = np.zeros((0, 0, 2), np.int32)
-        self.log_odds = np.zeros((0, 0), np.float32)  # of the counts (kept up to date at touched cells)
 
     def update(self, laser_poses: np.ndarray, scans: list[Scan]) -> int:
         """Make the map that of ``scans`` seen from ``laser_poses``, the updates so far (they only grow);
@@ -179,28 +209,30 @@ class CountMap:
             old = self.submaps[block] if block < len(self.submaps) else None
             if old is not None and not old.moved(poses, self.resolution):
                 continue
-            new = SubmapCounts.trace(poses, scans[first:first + size], self.resolution, self.model)
-            if old is not None:
-                self._add(old, -1)
-                self.submaps[block] = new
-            else:
-                self.submaps.append(new)
+            if old is not None:  # its counts, as they were added
+                self._add(self._trace(old.poses, scans[first:first + len(old.poses)]), -1)
+            new = self._trace(poses, scans[first:first + size])
             self._add(new, 1)
+            if old is not None:
+                self.submaps[block] = new.echoes()
+            else:
+                self.submaps.append(new.echoes())
             traced += 1
         return traced
+
+    def _trace(self, laser_poses: np.ndarray, scans: list[Scan]) -> SubmapCounts:
+        return SubmapCounts.trace(laser_poses, scans, self.resolution, self.model)
 
     def _add(self, submap: SubmapCounts, sign: int) -> None:
         if len(submap.cells) == 0:
             return
         self._grow_to(submap.lo, submap.hi)
         dx, dy = submap.corner - self.corner
-        m = self.model
-        _add_counts(self.counts, self.log_odds, submap.cells, submap.width, dx, dy, submap.occupied,
-                    submap.free, sign, m.l_occ, m.l_free, m.l_min, m.l_max)
+        _add_counts(self.counts, submap.cells, submap.width, dx, dy, submap.occupied, submap.free, sign)
 
     def _grow_to(self, lo: np.ndarray, hi: np.ndarray) -> None:
         """Make the dense arrays cover absolute cells ``lo..hi`` (in chunks on the lattice)."""
-        ny, nx = self.log_odds.shape
+        ny, nx = self.counts.shape[:2]
         if nx and ny:
             lo, hi = np.minimum(lo, self.corner), np.maximum(hi, self.corner + np.array([nx - 1, ny - 1]))
         new_lo = np.floor_divide(lo, GROW_CHUNK) * GROW_CHUNK
@@ -209,18 +241,17 @@ class CountMap:
             return
         (x0, y0), (x1, y1) = new_lo, new_hi
         counts = np.zeros((y1 - y0, x1 - x0, 2), np.int32)
-        log_odds = np.zeros((y1 - y0, x1 - x0), np.float32)
         if nx and ny:
             x, y = self.corner - new_lo
             counts[y:y + ny, x:x + nx] = self.counts
-            log_odds[y:y + ny, x:x + nx] = self.log_odds
-        self.corner, self.counts, self.log_odds = new_lo, counts, log_odds
+        self.corner, self.counts = new_lo, counts
 
     def grid(self, layout: OccupancyGrid | None = None) -> OccupancyGrid:
         """A fresh grid of the map, over its cells and (when given) ``layout``'s extent too."""
-        grid, cells = _grid_over(self.resolution, self.model, self.corner, self.log_odds.shape, layout)
+        grid, cells = _grid_over(self.resolution, self.model, self.corner, self.counts.shape[:2], layout)
         if cells.size:
-            cells[:] = self.log_odds
+            m = self.model
+            _log_odds(self.counts, cells, m.l_occ, m.l_free, m.l_min, m.l_max)
         return grid
 
     def hit_sums(self, grid: OccupancyGrid) -> SparseHits:

@@ -14,7 +14,7 @@ from collections.abc import Iterator
 
 import numpy as np
 
-from slam_core.count_map import SubmapCounts, _reach
+from slam_core.count_map import SubmapCounts, _reach, clamped_log_odds
 from slam_core.jit import njit
 from slam_core.occupancy_grid import GROW_CHUNK, OccupancyGrid, SensorModel
 from slam_core.raycast import beam_endpoint, cleared_cells, ray_buffer_size, trace_ray
@@ -63,11 +63,10 @@ def _count_band(occupied, free, row0, col0, ix0, iy0, nx, ny, inv, poses, angles
 @njit
 def _to_log_odds(occupied, free, l_occ, l_free, l_min, l_max):
     """In place: the counts in ``occupied`` become the cells' clamped log-odds, rounded to float32 as
-    :class:`~slam_core.count_map.CountMap` keeps them."""
+    :meth:`~slam_core.count_map.CountMap.grid` has them."""
     for iy in range(occupied.shape[0]):
         for ix in range(occupied.shape[1]):
-            v = l_occ * occupied[iy, ix] + l_free * free[iy, ix]
-            occupied[iy, ix] = np.float32(min(max(v, l_min), l_max))
+            occupied[iy, ix] = clamped_log_odds(occupied[iy, ix], free[iy, ix], l_occ, l_free, l_min, l_max)
 
 
 class MapBands:

@@ -104,6 +104,19 @@ def test_an_incremental_render_equals_one_from_scratch_and_traces_only_moved_sub
     np.testing.assert_allclose(counts.hit_sums(grid).dense(), scratch.hit_sums(grid).dense(), atol=1e-5)
 
 
+def test_of_each_submap_the_map_keeps_its_poses_and_echoes_not_the_cells_it_crossed():
+    """Memory grows with the area mapped: a submap's counts are traced again when they must be
+    taken out, so what is kept of it is its laser poses and at most one hit sum per echo."""
+    poses, scans = updates(3, 14)
+    counts = CountMap(RES, MODEL, SIZE)
+    counts.update(poses, scans)
+    kept = sum(a.nbytes for s in counts.submaps for a in vars(s).values() if isinstance(a, np.ndarray))
+    per_echo = np.dtype(np.int32).itemsize + 3 * np.dtype(np.float64).itemsize  # a cell and its sums
+    beams, cells = sum(len(s) for s in scans), np.count_nonzero(counts.counts.any(axis=2))
+    assert cells > 8 * beams  # the beams cross many more cells than they hold echoes
+    assert kept <= poses.nbytes + per_echo * beams + 2 * 8 * len(counts.submaps)  # + each corner
+
+
 def test_moves_within_the_tolerance_trace_nothing_and_keep_the_map_of_the_traced_poses():
     poses, scans = updates(11, 12)
     counts = CountMap(RES, MODEL, SIZE)

@@ -19,7 +19,7 @@ from app.robot.scan_slot import ScanSlot
 from app.streaming import map_frames
 from app.streaming.hub import FULL_MAP, Hub
 from app.worker.shared_map import UNKNOWN, SharedMap, grid_cells
-from slam_core.occupancy_grid import OccupancyGrid
+from slam_core.occupancy_grid import ROW_BLOCK, OccupancyGrid
 from slam_core.scan import Scan
 from slam_core.session import SUFFIX as SESSION_SUFFIX
 
@@ -113,6 +113,16 @@ def test_grid_cells_percent_and_unknown():
     assert cells[0, 0] == 100 and cells[1, 1] == 0 and cells[0, 1] == UNKNOWN
     rebuilt = map_frames.MapCanvas()
     assert rebuilt.cells is None
+
+
+def test_grid_cells_of_a_map_taller_than_a_block_of_rows_are_each_cells_percent():
+    rng = np.random.default_rng(4)
+    data = rng.normal(0.0, 3.0, (ROW_BLOCK * 2 + 37, 53)) * (rng.random((ROW_BLOCK * 2 + 37, 53)) < 0.7)
+    grid = OccupancyGrid(0.05, data=data.astype(np.float32))
+    cells = grid_cells(grid)
+    p = 1.0 / (1.0 + np.exp(-grid.data.astype(np.float64)))  # the oracle: every cell on its own
+    np.testing.assert_array_equal(cells[grid.data != 0.0], np.rint(100.0 * p[grid.data != 0.0]))
+    assert np.all(cells[grid.data == 0.0] == UNKNOWN) and np.count_nonzero(grid.data == 0.0) > 1000
 
 
 def test_map_frame_header_layout_matches_the_protocol():

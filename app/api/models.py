@@ -229,7 +229,8 @@ class RobotDescription(BaseModel):
 
 class Status(BaseModel):
     mode: str
-    mapping: bool
+    mapping: bool = Field(description="false while `mapping/stop` holds the map frozen (the pose then "
+                          "follows odometry), true otherwise in every mode: not the mode, see `mode`")
     pose: dict | None
     localized: bool
     room: str | None = None

@@ -114,8 +114,8 @@ def save_snapshot(directory: Path, checkpoint: Checkpoint) -> int:
     grid = checkpoint.grid
     arrays = {"state": np.array(json.dumps(_state(checkpoint)))}
     if grid is not None and grid.data.size:
-        arrays.update(log_odds=grid.data.astype(np.float32), origin=np.asarray(grid.origin, float),
-                      resolution=np.array(grid.resolution))
+        arrays.update(log_odds=grid.data.astype(np.float32, copy=False),  # written at once: no copy
+                      origin=np.asarray(grid.origin, float), resolution=np.array(grid.resolution))
         hits = checkpoint.hit_sums
         if hits is not None:
             if not hits.fits(grid):

@@ -36,9 +36,13 @@ class MapTooLarge(ValueError):
 
 
 def grid_cells(grid: OccupancyGrid) -> np.ndarray:
-    """``uint8`` cells of a grid: occupancy percent, :data:`UNKNOWN` where never observed."""
-    cells = np.rint(grid.probability() * 100.0).astype(np.uint8)
-    cells[grid.data == 0.0] = UNKNOWN
+    """``uint8`` cells of a grid: occupancy percent, :data:`UNKNOWN` where never observed (converted a
+    block of rows at a time: no whole-map float64 temporaries)."""
+    cells = np.empty(grid.shape, np.uint8)
+    for rows in grid.row_blocks():
+        block = cells[rows]
+        np.rint(grid.probability(rows) * 100.0, out=block, casting="unsafe")
+        block[grid.data[rows] == 0.0] = UNKNOWN
     return cells
 
 
