@@ -13,7 +13,7 @@ kept. Then, in a fresh process per mode, the map and hit sums of every solve are
 Printed per mode: CPU seconds (all solves, and per solve), submaps traced, peak RSS; then how many
 known cells of the two rules' maps differ, on the session's poses (``homebot slam``'s final map).
 
-    python benchmarks/live_render.py [--logs mit-csail intel]
+    python benchmarks/live_render.py [--logs mit-csail intel | LOG FILE ...] [--work DIR]
 """
 
 from __future__ import annotations
@@ -140,7 +140,7 @@ def main() -> int:
 
     with tempfile.TemporaryDirectory(prefix="homebot-render-") as tmp:
         for log in args.logs:
-            out = (args.work or Path(tmp)) / log
+            out = (args.work or Path(tmp)) / Path(log).name  # a shipped log's name, or a log file
             if not (out / "solves.npz").exists():
                 subprocess.run([sys.executable, "-m", "app.cli", "slam", log, "--out", str(out),
                                 "--save-session", "bench"], check=True, stdout=subprocess.DEVNULL)
