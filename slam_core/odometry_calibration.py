@@ -22,7 +22,9 @@ errors and gives, for a draw without a match:
   and translation apart, never wider than the model and never narrower than
   ``min_scale`` of it.
 
-Until ``min_samples`` errors are known, the motion and the model stay as they are.
+Until ``min_samples`` errors are known, the motion and the model stay as they are. The errors
+kept (:class:`MeasuredErrors`) go into the worker's checkpoints, so that a restarted estimator
+goes on from them instead of learning the odometry again.
 
 Localization in a finished map (:mod:`slam_core.localization.tracking`) fits the same systematic
 errors from its accepted matches and predicts with the corrected motion: a robot whose wheels
@@ -30,6 +32,8 @@ over-report travel otherwise runs ahead down a corridor, where a scan cannot pul
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -44,6 +48,28 @@ OUTLIER_SIGMAS = 2.5
 SYSTEMATIC_PRIOR = np.array([0.05, 0.05, 0.05])
 
 
+#: Columns of a measured error: travel, turn (rot1 + rot2), heading error, along-track error, and
+#: the motion model's rotation and translation standard deviations for that motion.
+ERROR_COLUMNS = 6
+
+
+@dataclass(frozen=True)
+class MeasuredErrors:
+    """The errors a calibration kept, oldest first ``(n, ERROR_COLUMNS)``, and the motion model's
+    ``alphas`` their standard deviations were computed with."""
+
+    alphas: np.ndarray
+    rows: np.ndarray
+
+    def __post_init__(self):
+        shape = np.shape(self.rows)
+        if np.shape(self.alphas) != (4,) or len(shape) != 2 or shape[1] != ERROR_COLUMNS:
+            raise ValueError(f"measured odometry errors need 4 alphas and rows of {ERROR_COLUMNS} values, "
+                             f"got {np.shape(self.alphas)} and {np.shape(self.rows)}")
+        if not (np.all(np.isfinite(self.alphas)) and np.all(np.isfinite(self.rows))):
+            raise ValueError("measured odometry errors hold non-finite values")
+
+
 class OdometryCalibration:
     """The odometry's systematic error and noise, from the errors the matches measured."""
 
@@ -51,8 +77,7 @@ class OdometryCalibration:
         self.alphas = np.asarray(alphas, dtype=float)
         self.min_samples = max(3, min_samples)
         self.min_scale = min_scale
-        # per sample: trans, turn (rot1 + rot2), heading error, along-track error, model stds
-        self._rows = np.zeros((max(self.min_samples, window), 6))
+        self._rows = np.zeros((max(self.min_samples, window), ERROR_COLUMNS))  # a ring, see ERROR_COLUMNS
         self._count = 0
         self._fit: tuple[np.ndarray, np.ndarray] | None = None
 
@@ -68,6 +93,22 @@ class OdometryCalibration:
 
     def calibrated(self) -> bool:
         return self._count >= self.min_samples
+
+    def measured(self) -> MeasuredErrors:
+        """The errors kept, oldest first (what :meth:`resume` goes on from)."""
+        n = min(self._count, len(self._rows))
+        oldest = self._count % len(self._rows) if self._count > len(self._rows) else 0
+        return MeasuredErrors(self.alphas.copy(), np.roll(self._rows[:n], -oldest, axis=0))
+
+    def resume(self, errors: MeasuredErrors) -> bool:
+        """Go on from ``errors`` measured on the same odometry (the newest that fit the window);
+        refused (``False``) when they were measured with another motion model's alphas."""
+        if not np.array_equal(errors.alphas, self.alphas):
+            return False
+        rows = errors.rows[-len(self._rows):]
+        self._rows[:len(rows)] = rows
+        self._count, self._fit = len(rows), None
+        return True
 
     def bias(self) -> np.ndarray:
         """``(heading per metre, heading per radian turned, translation scale error)``."""

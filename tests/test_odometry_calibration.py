@@ -115,3 +115,55 @@ def test_a_blind_lap_follows_the_calibrated_odometry(seed):
     assert odometry_degrees > 10  # the raw odometry turns the blind lap that far wrong
     assert degrees < 5 and metres < 0.2
     assert degrees < uncalibrated_degrees
+
+
+def _errors(n: int, seed: int) -> list[tuple[np.ndarray, np.ndarray]]:
+    """``n`` (motion, error) pairs of an odometry that drifts 0.02 rad a metre and over-reports 3 %."""
+    rng = np.random.default_rng(seed)
+    pairs = []
+    for _ in range(n):
+        motion = np.array([rng.uniform(-0.3, 0.3), rng.uniform(0.1, 1.0), rng.uniform(-0.3, 0.3)])
+        heading = 0.02 * motion[1] + rng.normal(0, 0.003)
+        pairs.append((motion, np.array([-0.03 * motion[1] + rng.normal(0, 0.003), 0.0, heading])))
+    return pairs
+
+
+def _fed(pairs, window: int = 150) -> OdometryCalibration:
+    cal = OdometryCalibration(ALPHAS, window=window, min_samples=20, min_scale=0.01)
+    for motion, error in pairs:
+        cal.observe(motion, error)
+    return cal
+
+
+@settings(max_examples=20, deadline=None)
+@given(n=st.integers(0, 400), seed=st.integers(0, 1000))
+def test_a_calibration_resumed_from_the_errors_kept_corrects_as_the_original(n, seed):
+    """What a restarted worker does with its checkpoint's errors: the same corrections at once, and
+    the same after both go on measuring (the ring of kept errors wraps past 150)."""
+    pairs = _errors(n + 30, seed)
+    original = _fed(pairs[:n])
+    resumed = OdometryCalibration(ALPHAS, window=150, min_samples=20, min_scale=0.01)
+    assert resumed.resume(original.measured())
+    assert len(original.measured().rows) == min(n, 150) and original.calibrated() == (n >= 20)
+    for _ in range(2):
+        assert resumed.calibrated() == original.calibrated()
+        np.testing.assert_allclose(resumed.bias(), original.bias(), rtol=0, atol=1e-12)
+        np.testing.assert_allclose(resumed.scales(), original.scales(), rtol=0, atol=1e-12)
+        np.testing.assert_array_equal(resumed.measured().rows, original.measured().rows)
+        for motion, error in pairs[n:]:
+            original.observe(motion, error)
+            resumed.observe(motion, error)
+    assert abs(resumed.bias()[0] - 0.02) < 0.005 and abs(resumed.bias()[2] + 0.03) < 0.005
+
+
+def test_errors_measured_with_another_motion_model_or_malformed_are_refused():
+    errors = _fed(_errors(60, 3)).measured()
+    other = OdometryCalibration(ALPHAS * 2, window=150, min_samples=20, min_scale=0.01)
+    assert not other.resume(errors) and not other.calibrated()  # its noise columns mean other stds
+    smaller = OdometryCalibration(ALPHAS, window=40, min_samples=20, min_scale=0.01)
+    assert smaller.resume(errors)
+    np.testing.assert_array_equal(smaller.measured().rows, errors.rows[-40:])  # the newest that fit
+    with pytest.raises(ValueError, match="rows of 6"):
+        type(errors)(errors.alphas, errors.rows[:, :5])
+    with pytest.raises(ValueError, match="non-finite"):
+        type(errors)(errors.alphas, np.where(np.eye(60, 6, dtype=bool), np.nan, errors.rows))

@@ -17,6 +17,9 @@ map and pose, no session) still loads, a consistent map and pose in the filter's
 back end starts afresh. Format 3 keeps the hit sums of the cells an echo fell into only
 (``hit_cells``, flat indices, and their ``hit_values``; format 2 kept them dense) and is deflated
 at level 1 (:mod:`slam_core.io.npz`): a building floor's snapshot costs 40 % of the CPU time.
+Any format may hold the odometry's errors the estimator measured (``odometry_alphas`` and
+``odometry_errors``, :class:`~slam_core.odometry_calibration.MeasuredErrors`); a snapshot without
+them resumes with a calibration that starts empty.
 A snapshot of a newer format, or whose session is missing or damaged, is refused (and set aside
 as below) rather than read wrongly.
 
@@ -45,6 +48,7 @@ from slam_core.io.npz import write_npz
 from slam_core.io.render import save_png
 from slam_core.io.ros_map import save_map
 from slam_core.occupancy_grid import OccupancyGrid
+from slam_core.odometry_calibration import MeasuredErrors
 from slam_core.rbpf.hit_render import SparseHits
 from slam_core.session import SUFFIX, SessionError, load_session, write_session
 
@@ -121,6 +125,9 @@ def save_snapshot(directory: Path, checkpoint: Checkpoint) -> int:
             if not hits.fits(grid):
                 raise ValueError(f"hit sums of a {hits.shape} grid at {hits.origin} for a {grid.shape} map")
             arrays["hit_cells"], arrays["hit_values"] = hits.cells, hits.values
+    errors = checkpoint.odometry_errors
+    if errors is not None:
+        arrays["odometry_alphas"], arrays["odometry_errors"] = errors.alphas, errors.rows
     if checkpoint.session is not None:
         write_atomically(session_path(directory, generation), lambda f: write_session(checkpoint.session, f))
     write_atomically(snapshot_path(directory, generation), lambda f: write_npz(f, arrays))
@@ -152,7 +159,10 @@ def read_snapshot(path: Path, max_cells: int, session: Path | None = None) -> Ch
                     hits = SparseHits.from_dense(dense, grid.origin)
                 if "hit_cells" in z:
                     hits = SparseHits(grid.origin, grid.shape, z["hit_cells"], z["hit_values"])
-        checkpoint = _checkpoint(state, grid, hits)
+            errors = None
+            if "odometry_errors" in z:
+                errors = MeasuredErrors(z["odometry_alphas"], z["odometry_errors"])
+        checkpoint = replace(_checkpoint(state, grid, hits), odometry_errors=errors)
     except (OSError, ValueError, KeyError, TypeError, EOFError, zipfile.BadZipFile, zlib.error) as exc:
         raise BadCheckpoint(f"unreadable: {type(exc).__name__}: {exc}") from None
     version = state.get("version", 1)

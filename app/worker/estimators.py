@@ -18,6 +18,7 @@ from slam_core.estimator import Estimate
 from slam_core.io.carmen import laser_mount_of
 from slam_core.localization.mcl import MclConfig, MonteCarloLocalizer
 from slam_core.occupancy_grid import OccupancyGrid
+from slam_core.odometry_calibration import MeasuredErrors, OdometryCalibration
 from slam_core.rbpf.config import RBPFConfig
 from slam_core.rbpf.filter import RBPFSlam
 from slam_core.rbpf.hit_render import SparseHits
@@ -44,6 +45,7 @@ class Checkpoint:
     ticks: tuple[int, int] | None = None  # the MCU's cumulative encoder counts at ``pose``
     hit_sums: SparseHits | None = None  # per-cell beam endpoint sums of ``grid`` (RBPF maps)
     session: MappingSession | None = None
+    odometry_errors: MeasuredErrors | None = None  # what the estimator learned of the odometry
 
 
 class FrozenMap:
@@ -96,7 +98,25 @@ def map_with_hits(estimator) -> tuple[OccupancyGrid | None, SparseHits | None]:
 
 
 def make_estimator(mode: str, settings, checkpoint: Checkpoint | None):
-    """The estimator for ``mode``, resuming from ``checkpoint`` (map and pose) when given."""
+    """The estimator for ``mode``, resuming from ``checkpoint`` (map, pose and the odometry's errors
+    measured so far) when given."""
+    estimator = _estimator(mode, settings, checkpoint)
+    calibration = odometry_calibration(estimator)
+    if calibration is not None and checkpoint is not None and checkpoint.odometry_errors is not None:
+        calibration.resume(checkpoint.odometry_errors)  # measured with another motion model: starts empty
+    return estimator
+
+
+def odometry_calibration(estimator) -> OdometryCalibration | None:
+    """The estimator's calibration of the odometry: the filter's, or the localization tracker's."""
+    if isinstance(estimator, RBPFSlam):
+        return estimator.calibration
+    if isinstance(estimator, MonteCarloLocalizer):
+        return estimator.tracker.odometry
+    return None
+
+
+def _estimator(mode: str, settings, checkpoint: Checkpoint | None):
     grid = checkpoint.grid if checkpoint is not None else None
     pose = checkpoint.pose if checkpoint is not None else np.zeros(3)
     if checkpoint is not None and not checkpoint.mapping:

@@ -40,6 +40,7 @@ from app.worker.estimators import (
     laser_mount,
     make_estimator,
     map_with_hits,
+    odometry_calibration,
     warm_up,
 )
 from app.worker.frames import map_to_odom
@@ -149,6 +150,7 @@ class Worker:
         self.map_name = checkpoint.map_name if checkpoint else None
         self.pose = checkpoint.pose.copy() if checkpoint else np.array(initial_pose, float)
         checkpoint = checkpoint or Checkpoint(self.mode, self.pose.copy())
+        self.odometry_errors = checkpoint.odometry_errors
         try:
             self.estimator = make_estimator(self.mode, s, checkpoint)
         except ModeUnavailable as exc:
@@ -229,8 +231,12 @@ class Worker:
                     grid, hits = self.kept_grid, self.kept_hits
                 elif hits is None and self.kept_hits is not None and self.kept_hits.fits(grid):
                     hits = self.kept_hits
+        errors = self.odometry_errors  # the last estimator's, until this one has learned as much
+        calibration = odometry_calibration(self.estimator)
+        if calibration is not None and calibration.calibrated():
+            errors = calibration.measured()
         return Checkpoint(self.mode, self.loops.map_pose(self.pose), grid, self.mapping, self.map_name,
-                          self.ticks, hits, session)
+                          self.ticks, hits, session, errors)
 
     def _save(self, with_map: bool) -> None:
         """A snapshot (map and pose) or just the pose; see :mod:`app.worker.checkpoint`."""
@@ -252,9 +258,10 @@ class Worker:
             current.grid if grid is None else grid,
             current.mapping if mapping is None else mapping,
             map_name if map_name is not None else current.map_name,
-            hit_sums=current.hit_sums if grid is None else hit_sums)
+            hit_sums=current.hit_sums if grid is None else hit_sums, odometry_errors=current.odometry_errors)
         estimator = make_estimator(mode, self.settings, checkpoint)  # ModeUnavailable: keep the old one
         self.estimator, self.mode, self.mapping = estimator, mode, checkpoint.mapping
+        self.odometry_errors = checkpoint.odometry_errors
         self.pose, self.map_name = checkpoint.pose, checkpoint.map_name
         self.kept_grid, self.kept_hits = checkpoint.grid, checkpoint.hit_sums
         self.map_changed = True
