@@ -361,6 +361,7 @@ class Runtime:
             "sim": self.settings.simulation,
             "replay": self.replay,
             "loops": latest.loops if latest else None,
+            "odometry": latest.odometry if latest else None,
             "frames": self.frames(),
             "true_pose": None if self.sim is None else [float(v) for v in self.sim.true_pose()],
             "events": list(self.events)[-5:],

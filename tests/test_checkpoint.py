@@ -254,8 +254,10 @@ def test_a_restarted_estimator_goes_on_from_the_odometry_errors_of_its_snapshot(
         motion = np.array([rng.uniform(-0.2, 0.2), rng.uniform(0.1, 0.5), rng.uniform(-0.2, 0.2)])
         learned.observe(motion, np.array([-0.04 * motion[1], 0.0, 0.03 * motion[1] + rng.normal(0, 0.002)]))
     settings, saved = Settings(data_dir=str(tmp_path)), replace(checkpoint_of(mapped_room), mode=mode)
-    save_snapshot(tmp_path, replace(saved, odometry_errors=learned.measured()))
+    generation = save_snapshot(tmp_path, replace(saved, odometry_errors=learned.measured()))
+    save_pose(tmp_path, replace(saved, pose=np.array([1.5, 0.5, 0.3])), generation)  # the robot drove on
     loaded = load_checkpoint(tmp_path, CAPACITY).checkpoint
+    np.testing.assert_array_equal(loaded.pose, [1.5, 0.5, 0.3])
     np.testing.assert_array_equal(loaded.odometry_errors.rows, learned.measured().rows)
     calibration = odometry_calibration(make_estimator(mode, settings, loaded))
     assert calibration.calibrated()

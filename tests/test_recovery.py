@@ -4,7 +4,8 @@ Every recovery must put the robot back where the simulator says it is (<= 5 cm; 
 three kills while driving, where the mapping's own error adds up) and keep the map in register
 (its agreement with the true map may not drop by more than a point), and no scan may be drawn
 twice into the home. A worker killed while the robot stands must find it where it was (<= 2 cm
-and 0.02 rad from its pose before the kill). Times are measured by ``benchmarks/recovery.py``.
+and 0.02 rad from its pose before the kill), with the odometry errors its filter had measured.
+Times are measured by ``benchmarks/recovery.py``.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ import time
 import numpy as np
 import pytest
 
+from slam_core.rbpf.config import RBPFConfig
 from slam_core.session import SUFFIX, load_session
 from tests.live_server import LiveServer
 from tests.recovery_harness import (
@@ -37,6 +39,8 @@ POSE_TOLERANCE_M = 0.05
 DRIVING_KILLS_TOLERANCE_M = 0.08
 #: How far a standing robot's pose may move over a worker's kill (m, rad).
 STANDING_MOVE_M = 0.02
+#: The odometry errors a filter keeps (``RBPFConfig.calibration_window``).
+CALIBRATION_WINDOW = RBPFConfig().calibration_window
 STANDING_TURN = 0.02
 AGREEMENT_DROP = 0.01
 DRIVE_S = 15.0
@@ -65,16 +69,24 @@ def test_worker_kills_and_an_mcu_power_cycle_while_driving_lose_nothing(tmp_path
         assert pose_error(status) <= DRIVING_KILLS_TOLERANCE_M, status
         assert after >= before - AGREEMENT_DROP, (before, after)
 
-        # The robot standing: a kill finds it where it was, as near the truth as before.
+        # The robot standing: a kill finds it where it was, as near the truth as before, and the
+        # filter goes on with the odometry errors it had measured (not learning them again).
         standing = status
+        learned = standing["odometry"]
+        assert learned["errors_measured"] > 0, learned
         for restarts in (4, 5):
             kill_worker(server)
             status, _ = wait_for(server, localized, TIMEOUT_S)
             moved, turned = pose_change(standing, status)
-            print(f"standing kill: moved {moved:.4f} m {turned:.4f} rad, error {pose_error(status):.4f} m")
+            print(f"standing kill: moved {moved:.4f} m {turned:.4f} rad, error {pose_error(status):.4f} m, "
+                  f"odometry {status['odometry']}")
             assert status["worker"]["restarts"] == restarts
             assert moved <= STANDING_MOVE_M and turned <= STANDING_TURN, (standing, status)
             assert pose_error(status) <= pose_error(standing) + STANDING_MOVE_M, (standing, status)
+            kept = min(learned["errors_measured"], CALIBRATION_WINDOW)
+            assert status["odometry"]["errors_measured"] == kept, (learned, status["odometry"])
+            for key, value in learned.items():
+                assert abs(status["odometry"][key] - value) <= 1e-3, (key, learned, status["odometry"])
 
         # A pose far outside the home never reaches the map (refused by the API or by the worker).
         with server.client() as c:

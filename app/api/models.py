@@ -244,6 +244,8 @@ class Status(BaseModel):
     sim: bool
     replay: dict | None = None
     loops: dict | None = None
+    odometry: dict | None = Field(None, description="how the odometry errs, as the estimator's matches "
+                                  "measured it (kept across restarts); null in modes without one")
     #: REP-105 frames: {"map_to_odom": [x, y, yaw], "map_to_odom_seq", "odom": [x, y, yaw], "odom_t"}
     frames: dict | None = None
     true_pose: list[float] | None

@@ -208,7 +208,7 @@ def load_checkpoint(directory: Path, max_cells: int) -> Restored:
             state = json.loads((directory / POSE_FILE).read_text())
             if state.get("generation") == generation:
                 checkpoint = replace(_checkpoint(state, checkpoint.grid, checkpoint.hit_sums),
-                                     session=checkpoint.session)
+                                     session=checkpoint.session, odometry_errors=checkpoint.odometry_errors)
         restored.checkpoint, restored.generation = checkpoint, generation
         return restored
     return restored

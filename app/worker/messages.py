@@ -96,6 +96,7 @@ class WorkerState:
     landmark_covariances: np.ndarray | None = None
     replay: dict | None = None
     loops: dict | None = None
+    odometry: dict | None = None  # the estimator's odometry calibration (OdometryCalibration.summary)
 
 
 @dataclass(frozen=True)

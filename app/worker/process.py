@@ -210,8 +210,12 @@ class Worker:
             particles=None if particles is None else np.asarray(particles, np.float32),
             weights=None if weights is None else np.asarray(weights, np.float32),
             points=points, landmarks=estimate.landmarks, landmark_covariances=estimate.landmark_covariances,
-            replay=self._replay_progress(), loops=self.loops.stats(),
+            replay=self._replay_progress(), loops=self.loops.stats(), odometry=self._odometry_summary(),
         ))
+
+    def _odometry_summary(self) -> dict | None:
+        calibration = odometry_calibration(self.estimator)
+        return None if calibration is None else calibration.summary()
 
     def _replay_progress(self) -> dict | None:
         return None if self.replay is None else self.replay.progress()
