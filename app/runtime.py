@@ -75,7 +75,7 @@ class Runtime:
         tour = load_world(settings.world).tour if settings.simulation else None
         self.navigator = Navigator(settings, self.current_grid, self.current_pose, self.send_velocity, tour,
                                    touring=settings.sim_tour)
-        self.rooms = RoomService(self.current_grid, RoomStore(settings.db_path))
+        self.rooms = RoomService(self.current_grid, self.map_cells, RoomStore(settings.db_path))
         self.zones = ZoneService(ZoneStore(settings.db_path))
         self.navigator.restrictions = self.zones.restrictions
         self.sim: SimHandles | None = None
@@ -295,6 +295,11 @@ class Runtime:
         if self._grid_cache is None or self._grid_cache[0] != snapshot.seq:
             self._grid_cache = (snapshot.seq, snapshot.grid())
         return self._grid_cache[1]
+
+    def map_cells(self) -> int:
+        """The current map's cell count (0 without a map)."""
+        snapshot = self.map_snapshot
+        return 0 if snapshot is None else snapshot.width * snapshot.height
 
     def current_pose(self) -> np.ndarray | None:
         """The worker's ``map -> odom`` correction composed with the newest odometry (REP-105): fresh

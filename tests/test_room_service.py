@@ -28,11 +28,17 @@ def test_segmenting_takes_at_most_its_share_of_the_time(cost):
     assert cost <= MAX_SHARE * (cost + pause) + 1e-9
 
 
-def test_a_map_over_the_limit_is_not_segmented_and_one_under_it_is(tmp_path, monkeypatch):
-    grids = iter([_walled_room(60, 80), _walled_room(40, 40)])
-    service = RoomService(lambda: next(grids), RoomStore(tmp_path / "rooms.sqlite3"))
+def test_a_map_over_the_limit_is_neither_rebuilt_nor_segmented_and_one_under_it_is(tmp_path, monkeypatch):
+    maps, built = [_walled_room(60, 80), _walled_room(40, 40)], []
+
+    def grid():
+        built.append(maps[0])
+        return maps[0]
+
+    service = RoomService(grid, lambda: maps[0].data.size, RoomStore(tmp_path / "rooms.sqlite3"))
     monkeypatch.setattr(service_module, "MAX_ROOM_CELLS", 40 * 40)
     asyncio.run(service.refresh())
-    assert service.layout is None and service.rooms() == []
+    assert service.layout is None and service.rooms() == [] and built == []  # no grid made for it
+    maps.pop(0)
     asyncio.run(service.refresh())
-    assert service.layout is not None and len(service.rooms()) == 1
+    assert service.layout is not None and len(service.rooms()) == 1 and len(built) == 1

@@ -74,7 +74,7 @@ def test_the_map_image_is_rendered_off_the_loop(tmp_path):
 
 def test_the_rooms_are_segmented_off_the_loop(tmp_path):
     segment_rooms(_slow_grid())  # loading numba's cached kernels holds the GIL once per process
-    service = RoomService(_slow_grid, RoomStore(tmp_path / "rooms.sqlite3"))
+    service = RoomService(_slow_grid, lambda: 60 * 80, RoomStore(tmp_path / "rooms.sqlite3"))  # its size
     stall = asyncio.run(_longest_stall(service.refresh))
     assert service.layout is not None and len(service.rooms()) == 1
     assert stall < SLOW_S / 2, f"the loop stalled {stall:.2f} s"

@@ -43,8 +43,9 @@ def pause_after(cost_s: float) -> float:
 class RoomService:
     """The rooms of the map in use (the live one, or a saved one being localized in)."""
 
-    def __init__(self, grid: Callable[[], OccupancyGrid | None], store: RoomStore):
+    def __init__(self, grid: Callable[[], OccupancyGrid | None], cells: Callable[[], int], store: RoomStore):
         self._grid = grid
+        self._cells = cells  # the current map's cell count, known without building its grid
         self.store = store
         self.key = LIVE
         self.layout: RoomLayout | None = store.load(LIVE)
@@ -63,9 +64,12 @@ class RoomService:
             await asyncio.sleep(pause_after(time.monotonic() - started))
 
     async def refresh(self) -> None:
-        """Segment the current map if it changed since the last time."""
+        """Segment the current map if it changed since the last time (a map over the limit is not
+        even rebuilt as a grid)."""
+        if self._oversized(self._cells()):
+            return
         grid = await asyncio.to_thread(self._grid)  # rebuilt from the shared map: not on the loop
-        if grid is None or grid is self._segmented or self._oversized(grid):
+        if grid is None or grid is self._segmented:
             return
         async with self._lock:
             previous = self.layout
@@ -73,11 +77,10 @@ class RoomService:
             self._segmented = grid
             await asyncio.to_thread(self.store.save, self.key, self.layout)
 
-    def _oversized(self, grid: OccupancyGrid) -> bool:
-        too_large = grid.data.size > MAX_ROOM_CELLS
+    def _oversized(self, cells: int) -> bool:
+        too_large = cells > MAX_ROOM_CELLS
         if too_large and not self._too_large:
-            log.warning("the map has %d cells, over %d: its rooms are not segmented", grid.data.size,
-                        MAX_ROOM_CELLS)
+            log.warning("the map has %d cells, over %d: its rooms are not segmented", cells, MAX_ROOM_CELLS)
         self._too_large = too_large
         return too_large
 
