@@ -8,8 +8,8 @@ depend on the order of the scans, and a submap (a block of consecutive updates) 
 and put back from other poses exactly (the counts are integers).
 
 :class:`CountMap` keeps the sums of every submap's counts in one dense pair of counts (its grid's
-log-odds are made from them), and of each submap only the laser poses it was traced from and its echoes' hit
-sums (:class:`SubmapEchoes`): so its memory grows with the area mapped, not with the updates.
+log-odds are made from them), and of each submap only the laser poses it was traced from and its
+echoes' hit sums (:class:`SubmapEchoes`): its memory grows with the area mapped, not with the updates.
 :meth:`CountMap.update` traces again only the submaps whose poses moved (an update by more than
 :data:`MOVE_CELLS` of a cell or :data:`MOVE_RAD`) and the ones that are new or grew; a moved
 submap's old counts are traced again from its old poses (the same cells, exactly) and taken out.
