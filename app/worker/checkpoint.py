@@ -162,7 +162,7 @@ def read_snapshot(path: Path, max_cells: int, session: Path | None = None) -> Ch
             errors = None
             if "odometry_errors" in z:
                 errors = MeasuredErrors(z["odometry_alphas"], z["odometry_errors"])
-        checkpoint = replace(_checkpoint(state, grid, hits), odometry_errors=errors)
+        checkpoint = Checkpoint(grid=grid, hit_sums=hits, odometry_errors=errors, **_state_fields(state))
     except (OSError, ValueError, KeyError, TypeError, EOFError, zipfile.BadZipFile, zlib.error) as exc:
         raise BadCheckpoint(f"unreadable: {type(exc).__name__}: {exc}") from None
     version = state.get("version", 1)
@@ -184,13 +184,15 @@ def read_snapshot(path: Path, max_cells: int, session: Path | None = None) -> Ch
     return checkpoint
 
 
-def _checkpoint(state: dict, grid: OccupancyGrid | None, hits: SparseHits | None) -> Checkpoint:
+def _state_fields(state: dict) -> dict:
+    """The :class:`Checkpoint` fields a snapshot's state (or the pose file) holds, checked."""
     pose = np.array(state["pose"], float)
     if pose.shape != (3,) or not np.all(np.isfinite(pose)):
         raise ValueError(f"pose {state['pose']!r} is not three finite numbers")
     ticks = state.get("ticks")
-    return Checkpoint(str(state["mode"]), pose, grid, bool(state.get("mapping", True)), state.get("map_name"),
-                      None if ticks is None else (int(ticks[0]), int(ticks[1])), hits)
+    return {"mode": str(state["mode"]), "pose": pose, "mapping": bool(state.get("mapping", True)),
+            "map_name": state.get("map_name"),
+            "ticks": None if ticks is None else (int(ticks[0]), int(ticks[1]))}
 
 
 def load_checkpoint(directory: Path, max_cells: int) -> Restored:
@@ -206,9 +208,8 @@ def load_checkpoint(directory: Path, max_cells: int) -> Restored:
             continue
         with contextlib.suppress(OSError, ValueError, KeyError, TypeError, IndexError):
             state = json.loads((directory / POSE_FILE).read_text())
-            if state.get("generation") == generation:
-                checkpoint = replace(_checkpoint(state, checkpoint.grid, checkpoint.hit_sums),
-                                     session=checkpoint.session, odometry_errors=checkpoint.odometry_errors)
+            if state.get("generation") == generation:  # newer state; the map and the rest stay
+                checkpoint = replace(checkpoint, **_state_fields(state))
         restored.checkpoint, restored.generation = checkpoint, generation
         return restored
     return restored
