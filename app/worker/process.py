@@ -223,9 +223,14 @@ class Worker:
     # estimator management
     def _checkpoint(self, with_map: bool = True) -> Checkpoint:
         """What to resume from, in the published (map) frame: after a loop-closing solve, the
-        optimised map with its hit sums and the corrected pose; with the map, the mapping session."""
-        grid = hits = session = None
+        optimised map with its hit sums and the corrected pose; with the map, the mapping session
+        and the odometry errors measured."""
+        grid = hits = session = errors = None
         if with_map:
+            errors = self.odometry_errors  # the last estimator's, until this one has learned as much
+            calibration = odometry_calibration(self.estimator)
+            if calibration is not None and calibration.calibrated():
+                errors = calibration.measured()
             session = self.loops.session(self.estimator, self.pose)
             if self.loops.solved is not None:
                 grid, hits = self.loops.published_grid, self.loops.published_hits(session)
@@ -235,10 +240,6 @@ class Worker:
                     grid, hits = self.kept_grid, self.kept_hits
                 elif hits is None and self.kept_hits is not None and self.kept_hits.fits(grid):
                     hits = self.kept_hits
-        errors = self.odometry_errors  # the last estimator's, until this one has learned as much
-        calibration = odometry_calibration(self.estimator)
-        if calibration is not None and calibration.calibrated():
-            errors = calibration.measured()
         return Checkpoint(self.mode, self.loops.map_pose(self.pose), grid, self.mapping, self.map_name,
                           self.ticks, hits, session, errors)
 
