@@ -8,6 +8,10 @@ without being wrong. A scan's reference pose is *contradicted* when the best pos
 ``window`` of it (correlative search, then refinement, :class:`ScanToMapMatcher`) lies more than
 ``offset`` away and explains at least ``gain`` more of the beams than the reference pose itself
 (a reference a few centimetres off is not contradicted: its best pose is near).
+
+:func:`settled_poses` is the other oracle: the pose the tracker's matcher settles on when it is
+started at the reference pose itself. No localizer that matches scans against this map can be
+expected to agree with the reference more often than these poses do.
 """
 
 from __future__ import annotations
@@ -33,3 +37,12 @@ def contradicted(grid: OccupancyGrid, scans: list[Scan], poses, window: float = 
         best = matcher.search(pose, points, window, np.radians(5.0), np.radians(0.5))
         out[i] = (np.hypot(*(best.pose[:2] - pose[:2])) > offset and best.fit >= here + gain)
     return out
+
+
+def settled_poses(grid: OccupancyGrid, scans: list[Scan], poses, beams: int = 180,
+                  max_range: float = 30.0) -> np.ndarray:
+    """``(n, 3)``: each scan matched against the map from its reference pose ``poses[i]``."""
+    matcher = ScanToMapMatcher(KnownMap(grid))
+    return np.array([matcher.match(pose, tracking_points(scan, (0.0, 0.0, 0.0), beams, max_range)).pose
+                     for scan, pose in zip(scans, np.asarray(poses, dtype=np.float64), strict=True)]
+                    ).reshape(-1, 3)
