@@ -54,6 +54,23 @@ def test_a_long_loop_closes_after_metres_of_drift(ring):
     assert narrow.loop_edges == 0 and distance(narrow.poses[lap:], narrow.poses[:50]).min() > 3.0
 
 
+def test_a_wide_match_that_fits_less_is_kept_when_its_neighbours_confirm_it(ring):
+    """No wide match alone explains enough beams here (the accept fit is above 1); those that
+    explain ``wide_confirm_fit`` close the loop because the updates around them match where
+    they put them. Asking for more confirmations than there are neighbours leaves it open."""
+    truth, scans = ring
+    bent = drifted(truth, turn_bias=0.0004)
+    lap = len(truth) - 50
+    strict = dataclasses.replace(CONFIG, wide_accept_fit=1.01)
+    result, _ = close_loops(bent, scans, strict)
+    assert result.loop_edges > 10, result.stats()
+    assert distance(truth, result.poses)[lap:].max() < 0.3
+    assert distance(result.poses[lap:], result.poses[:50]).max() < 0.15
+    unconfirmed, _ = close_loops(bent, scans, dataclasses.replace(strict, wide_confirmations=5))
+    assert unconfirmed.loop_edges == 0
+    assert distance(unconfirmed.poses[lap:], unconfirmed.poses[:50]).min() > 3.0
+
+
 def thinned(scan: Scan, every: int = 15) -> Scan:
     """The scan with one beam in ``every`` left (the others no measurement): open ground."""
     ranges = np.full(len(scan), np.nan)

@@ -36,7 +36,10 @@ class LoopClosureConfig:
     ``max_linear_window`` / ``max_angular_window``: the ``wide_candidates`` nearest
     whose anchor lies within ``search_radius`` plus that window. The search keeps only
     poses where the correlative score reaches ``wide_min_score`` of its maximum, and
-    the match must explain ``wide_accept_fit`` of the beams.
+    the match must explain ``wide_accept_fit`` of the beams; one that explains at least
+    ``wide_confirm_fit`` is kept too if ``wide_confirmations`` of the four updates around
+    it match the submap where it puts them (a narrow search that explains ``accept_fit``
+    within half the narrow window of there).
     """
 
     enabled: bool = True
@@ -64,3 +67,5 @@ class LoopClosureConfig:
     wide_candidates: int = 3
     wide_min_score: float = 0.5
     wide_accept_fit: float = 0.8
+    wide_confirm_fit: float = 0.7
+    wide_confirmations: int = 2

@@ -14,7 +14,9 @@ trajectory at its filter updates and
    a window wide enough for the drift (a best pose on the window's rim is a false
    peak and is dropped), then the filter's Gauss-Newton point-to-line matcher; a
    match that explains enough beams becomes a loop edge from the submap's anchor
-   to that update, weighted with the matcher's information;
+   to that update, weighted with the matcher's information (a match of the wide
+   search that explains fewer is kept if the updates around it match where it
+   puts them);
 3. optimises the pose graph of the loop edges and the chain of the filter's own
    steps (:mod:`slam_core.graph.pose_graph`, Huber-robust on loop edges), drops
    loop edges that still disagree, optimises again; the next round searches
@@ -42,7 +44,7 @@ from functools import cached_property
 
 import numpy as np
 
-from slam_core.geometry import compose, relative
+from slam_core.geometry import compose, relative, wrap_angle
 from slam_core.graph.config import LoopClosureConfig
 from slam_core.graph.pose_graph import PoseGraph, chain_edges, optimize
 from slam_core.graph.wide_search import LEVELS, field_pyramid, wide_search
@@ -290,12 +292,29 @@ def close_loops(poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig 
                 continue
             hit = _match(sub, sub.in_frame(estimate[sub.anchor], estimate[q]), beams, points,
                          config, matcher, params, linear, angular)
-            accept = config.accept_fit if linear <= config.linear_window else config.wide_accept_fit
-            if hit is not None and hit[2] >= accept:
+            wide = linear > config.linear_window
+            if hit is not None and (hit[2] >= (config.wide_accept_fit if wide else config.accept_fit) or (
+                    wide and hit[2] >= config.wide_confirm_fit and confirmed(sub, q, hit[0], estimate))):
                 found.append((q, relative(sub.anchor_pose, hit[0]), hit[1] * config.information_scale))
-            elif linear <= config.linear_window:
+            elif not wide:
                 failed[(s, q)] = relative(estimate[sub.anchor], estimate[q])
         return s, found
+
+    def confirmed(sub: Submap, q: int, pose: np.ndarray, estimate: np.ndarray) -> bool:
+        """Whether enough of the updates around ``q`` match ``sub`` where its match ``pose`` (in the
+        submap's frame) puts them, by the estimate's steps between them."""
+        agree = 0
+        for k in (q - 2, q - 1, q + 1, q + 2):
+            if not 0 <= k < n:
+                continue
+            beams, points = query_rows(k)
+            start = compose(pose, relative(estimate[q], estimate[k]))
+            hit = None if len(points) == 0 else _match(sub, start, beams, points, config, matcher, params,
+                                                       *narrow)
+            agree += bool(hit is not None and hit[2] >= config.accept_fit
+                          and np.hypot(*(hit[0][:2] - start[:2])) <= narrow[0] / 2
+                          and abs(wrap_angle(hit[0][2] - start[2])) <= narrow[1] / 2)
+        return agree >= config.wide_confirmations
 
     def search_and_solve(pairs: dict[int, list[tuple[int, float, float]]], estimate: np.ndarray):
         if not pairs:
