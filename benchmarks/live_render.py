@@ -46,7 +46,7 @@ def solve_poses(out: Path) -> None:
     for n in range(every, len(poses) + 1, every):
         reuse = memory if n < FULL_SOLVE_GROWTH * full_at else None
         result, _ = close_loops(poses[:n], session.scans[:n], c.loop_closure, c.matcher, c.resolution,
-                                c.sensor, session.laser_mount, reuse)
+                                c.sensor, session.laser_mount, reuse, session.odometry[:n])
         memory, full_at = result.memory, full_at if reuse is not None else n
         solved[f"s{len(solved):04d}"] = result.poses
     np.savez(out / "solves.npz", **solved)

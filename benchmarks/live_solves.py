@@ -59,7 +59,8 @@ def solves(out: Path, mode: str, poses_file: Path) -> None:
         reuse = memory if n < FULL_SOLVE_GROWTH * full_at else None
         started = time.process_time()
         result, _ = loop_closure.close_loops(poses[:n], session.scans[:n], c.loop_closure, c.matcher,
-                                             c.resolution, c.sensor, session.laser_mount, reuse)
+                                             c.resolution, c.sensor, session.laser_mount, reuse,
+                                             session.odometry[:n])
         cpu += time.process_time() - started
         count += 1
         memory = result.memory

@@ -110,11 +110,13 @@ class LiveBackEnd:
         self.scans.append(scan)
         if len(self.scans) % self.config.loop_closure.submap_updates or self.busy:
             return
-        poses, scans = best_updates(slam).poses, list(self.scans)
+        best, scans = best_updates(slam), list(self.scans)
+        poses, odometry = best.poses, best.odometry.reshape(-1, 3)
         if self.prior is not None:
             poses, scans = np.vstack([self.prior.poses, poses]), self.prior.scans + scans
+            odometry = np.vstack([self.prior.odometry, odometry])
         layout = slam.occupancy_map()
-        self._thread = threading.Thread(target=self._solve, args=(poses, scans, layout),
+        self._thread = threading.Thread(target=self._solve, args=(poses, odometry, scans, layout),
                                         name="live-back-end", daemon=True)
         self._thread.start()
 
@@ -138,22 +140,24 @@ class LiveBackEnd:
         scans = (self.prior.scans if self.prior is not None else []) + self.scans
         return MappingSession(self.config, self.mount, np.vstack([old, poses]), odometry, scans, end_pose)
 
-    def _solve(self, poses: np.ndarray, scans: list[Scan], layout: OccupancyGrid) -> None:
+    def _solve(self, poses: np.ndarray, odometry: np.ndarray, scans: list[Scan],
+               layout: OccupancyGrid) -> None:
         """One solve; one that raises leaves its reason for :meth:`failure` (and its traceback in
         the worker's log), and the next completed submap starts the next."""
         try:
-            self._solve_once(poses, scans, layout)
+            self._solve_once(poses, odometry, scans, layout)
         except Exception as exc:  # a thread's exception would only be printed
             traceback.print_exc()
             with self._lock:
                 self._failure = f"{type(exc).__name__}: {exc}"
 
-    def _solve_once(self, poses: np.ndarray, scans: list[Scan], layout: OccupancyGrid) -> None:
+    def _solve_once(self, poses: np.ndarray, odometry: np.ndarray, scans: list[Scan],
+                    layout: OccupancyGrid) -> None:
         started = time.perf_counter()
         c = self.config
         memory = self._memory if len(poses) < FULL_SOLVE_GROWTH * self._full_at else None
         closed, _ = close_loops(poses, scans, c.loop_closure, c.matcher, c.resolution, c.sensor, self.mount,
-                                memory)
+                                memory, odometry)
         self._memory = closed.memory
         if memory is None:
             self._full_at = len(poses)

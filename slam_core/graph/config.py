@@ -40,6 +40,10 @@ class LoopClosureConfig:
     ``wide_confirm_fit`` is kept too if ``wide_confirmations`` of the four updates around
     it match the submap where it puts them (a narrow search that explains ``accept_fit``
     within half the narrow window of there).
+
+    Where the filter's step and the wheel odometry's disagree by more than
+    ``witness_tolerance``, the step's position variance gains the square of the excess
+    (:mod:`slam_core.graph.odometry_witness`), so that the loop edges can bend the chain there.
     """
 
     enabled: bool = True
@@ -69,3 +73,4 @@ class LoopClosureConfig:
     wide_accept_fit: float = 0.8
     wide_confirm_fit: float = 0.7
     wide_confirmations: int = 2
+    witness_tolerance: float = 0.1

@@ -46,6 +46,7 @@ import numpy as np
 
 from slam_core.geometry import compose, relative, wrap_angle
 from slam_core.graph.config import LoopClosureConfig
+from slam_core.graph.odometry_witness import step_disagreement
 from slam_core.graph.pose_graph import PoseGraph, chain_edges, optimize
 from slam_core.graph.wide_search import LEVELS, field_pyramid, wide_search
 from slam_core.occupancy_grid import SensorModel
@@ -233,12 +234,14 @@ def _match(sub: Submap, start: np.ndarray, beams: np.ndarray, points: np.ndarray
 
 def close_loops(poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig | None = None,
                 matcher: MatcherParams | None = None, resolution: float = 0.05,
-                model: SensorModel | None = None, laser_mount=None, memory: LoopMemory | None = None
-                ) -> tuple[LoopClosureResult, Submaps]:
+                model: SensorModel | None = None, laser_mount=None, memory: LoopMemory | None = None,
+                odometry: np.ndarray | None = None) -> tuple[LoopClosureResult, Submaps]:
     """Loop-closed robot poses for the filter's robot poses at its updates with their scans
     (taken by a laser at ``laser_mount`` in the robot frame); also the submaps (for
     :func:`scan_poses`), which hold the laser's poses. With the ``memory`` of a solve of the
-    first part of this trajectory, only the updates since are searched."""
+    first part of this trajectory, only the updates since are searched. With the ``odometry``
+    at the updates, the chain's steps are loosened where the two disagree (:mod:`odometry_witness
+    <slam_core.graph.odometry_witness>`)."""
     config = config or LoopClosureConfig()
     matcher = matcher or MatcherParams()
     model = model or SensorModel()
@@ -252,7 +255,8 @@ def close_loops(poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig 
         return result, submaps
     path = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(poses[:, :2], axis=0).T))])
     reach = min(matcher.max_range, model.usable_range)
-    chain = _chain_information(poses, config)
+    loosen = None if odometry is None else step_disagreement(result.poses, odometry, config.witness_tolerance)
+    chain = _chain_information(poses, config, loosen)
     drift = ChainDrift(poses, path, config, sparse_step_scales(scans, reach, matcher))
     estimate = poses.copy()
     first = 0  # the first update searched
@@ -497,11 +501,14 @@ class ChainDrift:
         return np.sqrt(np.minimum(vxy, (first_xy + last_xy + first_th * lever * lever).min(axis=1)))
 
 
-def _chain_information(poses: np.ndarray, config: LoopClosureConfig) -> np.ndarray:
-    """Information of each filter step (:func:`_chain_sigmas`)."""
+def _chain_information(poses: np.ndarray, config: LoopClosureConfig,
+                       loosen: np.ndarray | None = None) -> np.ndarray:
+    """Information of each filter step (:func:`_chain_sigmas`), its position's standard error
+    widened by ``loosen`` (metres, per step) if given."""
     sxy, sth = _chain_sigmas(poses, config)
+    vxy = sxy ** 2 if loosen is None else sxy ** 2 + np.asarray(loosen) ** 2
     info = np.zeros((len(sxy), 3, 3))
-    info[:, 0, 0] = info[:, 1, 1] = 1.0 / sxy ** 2
+    info[:, 0, 0] = info[:, 1, 1] = 1.0 / vxy
     info[:, 2, 2] = 1.0 / sth ** 2
     return info
 

@@ -165,7 +165,7 @@ def close_filter_loops(config: RBPFConfig, mount: LaserMount, best: BestUpdates,
         update_scans = prior.scans + update_scans
         update_of_scan = update_of_scan + first
     closed, submaps = close_loops(best.poses, update_scans, lc, config.matcher, config.resolution,
-                                  config.sensor, mount)
+                                  config.sensor, mount, odometry=best.odometry)
     final = scan_poses(submaps, closed.poses, update_of_scan, odometry, best.odometry, scans, lc,
                        config.matcher, config.sensor, mount)
     del submaps

@@ -1,0 +1,45 @@
+"""Where the filter's step and the wheel odometry's disagree, the chain's step is that uncertain.
+
+The back end's chain trusts each filter step to a few centimetres. Where a scan match went wrong
+(few walls in range, look-alike places) a filter step can be off by decimetres while the
+odometry, an independent witness, read it right; a pose graph that trusts the wrong step cannot
+bend there when the loop edges around it disagree. So each step's position variance gains the
+square of the disagreement beyond a tolerance (the odometry's own noise, and the stale readings
+of real wheels). Where the odometry is no witness, nothing is added: it froze (read less than
+``STALL_XY`` while the filter moved) or caught up after freezing (read more than ``CATCH_UP``
+times its running mean step, rate ``SPEED_RATE``), the faults the odometry of intel and
+mit-csail shows.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from slam_core.geometry import relative
+
+STALL_XY = 0.01
+CATCH_UP = 2.0
+SPEED_RATE = 0.2
+
+
+def step_disagreement(poses: np.ndarray, odometry: np.ndarray, tolerance: float) -> np.ndarray:
+    """``(n - 1,)`` metres: how far each step of ``poses`` (n, 3) lands from the odometry's step
+    (``odometry`` (n, 3) at the same instants, both in the robot frame), beyond ``tolerance``;
+    0 where the odometry froze or caught up."""
+    poses = np.asarray(poses, dtype=np.float64).reshape(-1, 3)
+    odometry = np.asarray(odometry, dtype=np.float64).reshape(-1, 3)
+    if poses.shape != odometry.shape:
+        raise ValueError(f"need an odometry pose per pose, got {odometry.shape} for {poses.shape}")
+    if len(poses) < 2:
+        return np.zeros(0)
+    ours = relative(poses[:-1], poses[1:])
+    theirs = relative(odometry[:-1], odometry[1:])
+    apart = np.hypot(ours[:, 0] - theirs[:, 0], ours[:, 1] - theirs[:, 1])
+    read = np.hypot(theirs[:, 0], theirs[:, 1])
+    witness = read >= STALL_XY
+    mean = None
+    for k in np.flatnonzero(witness):
+        if mean is not None and read[k] > CATCH_UP * mean:
+            witness[k] = False
+        mean = read[k] if mean is None else mean + SPEED_RATE * (read[k] - mean)
+    return np.where(witness, np.maximum(apart - tolerance, 0.0), 0.0)

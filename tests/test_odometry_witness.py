@@ -1,0 +1,84 @@
+"""The chain's steps loosened where the filter and the odometry disagree, and not where the
+odometry froze or caught up; a filter step that slid is then put right by the loops around it."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from slam_core.geometry import compose, relative
+from slam_core.graph.config import LoopClosureConfig
+from slam_core.graph.loop_closure import close_loops
+from slam_core.graph.odometry_witness import step_disagreement
+from tests.large_world import drifted, ring_tour, ring_world
+from tests.test_loop_closure_drift import scans_along
+
+CONFIG = LoopClosureConfig(submap_updates=10)
+
+
+def chained(start, steps):
+    poses = [np.asarray(start, float)]
+    for step in steps:
+        poses.append(compose(poses[-1], step))
+    return np.array(poses)
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 10 ** 6), k=st.integers(5, 38), slide=st.floats(0.15, 2.0))
+def test_a_step_that_slid_from_the_odometry_is_loosened_by_the_excess_and_no_other(seed, k, slide):
+    """A robot at a steady speed (no reading twice the mean: none looks like a catch-up)."""
+    rng = np.random.default_rng(seed)
+    steps = np.column_stack([rng.uniform(0.4, 0.6, 40), rng.normal(0, 0.02, 40), rng.normal(0, 0.1, 40)])
+    odometry = chained(rng.normal(0, 5, 3), steps)
+    moved = steps.copy()
+    moved[k, :2] += slide * np.array([np.cos(1.0), np.sin(1.0)])
+    poses = chained((1.0, 2.0, 0.3), moved)  # another frame: only the steps compare
+    got = step_disagreement(poses, odometry, 0.1)
+    assert got.shape == (40,)
+    assert got[k] == pytest.approx(slide - 0.1, abs=1e-9)
+    assert np.all(np.delete(got, k) < 1e-9)
+    assert np.all(step_disagreement(odometry, odometry, 0.0) < 1e-9)
+
+
+def test_an_odometry_that_froze_or_caught_up_is_no_witness():
+    steps = np.tile([0.3, 0.0, 0.0], (12, 1))
+    filtered = chained((0, 0, 0), steps)
+    read = steps.copy()
+    read[5] = 0.0  # froze while the robot drove
+    read[6] = [0.6, 0.0, 0.0]  # and caught up
+    read[9] = [0.55, 0.0, 0.0]  # a reading as long, with no freeze before: the filter lost 0.25 m
+    got = step_disagreement(filtered, chained((0, 0, 0), read), 0.1)
+    assert got[5] == 0.0 and got[6] == 0.0
+    assert got[9] == pytest.approx(0.15)
+    with pytest.raises(ValueError):
+        step_disagreement(filtered, filtered[:-1], 0.1)
+
+
+def test_a_filter_step_that_slid_between_loop_edges_is_put_right_with_the_odometry():
+    """The second lap retraces the first; half way along it the filter's step slid 0.5 m across.
+    Without the odometry the chain trusts that step and the retraced lap stays apart; with an
+    odometry that read the step right, the step is loosened and both halves lie on the first lap."""
+    truth = ring_tour()
+    scans = scans_along(truth, ring_world())
+    lap = len(truth) - 50
+    k = lap + 25
+    bent = drifted(truth, turn_bias=0.0004)
+    steps = relative(bent[:-1], bent[1:])
+    steps[k, 1] += 0.5
+    filtered = chained(truth[0], steps)
+    rng = np.random.default_rng(0)
+    odometry = chained(truth[0], relative(truth[:-1], truth[1:]) + rng.normal(0, 0.01, (len(truth) - 1, 3))
+                       * np.array([1.0, 1.0, 0.2]))
+
+    def step_error(poses):
+        d = relative(poses[:-1], poses[1:]) - relative(truth[:-1], truth[1:])
+        return np.hypot(d[:, 0], d[:, 1])
+
+    def apart(poses):
+        return np.hypot(*(poses[lap:, :2] - poses[:50, :2]).T).max()
+
+    trusted, _ = close_loops(filtered, scans, CONFIG)
+    witnessed, _ = close_loops(filtered, scans, CONFIG, odometry=odometry)
+    assert step_error(trusted.poses)[k] > 0.3 and apart(trusted.poses) > 0.2
+    assert step_error(witnessed.poses)[k] < 0.05
+    assert apart(witnessed.poses) < 0.05
