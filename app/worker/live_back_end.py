@@ -40,7 +40,7 @@ from slam_core.count_map import CountMap
 from slam_core.geometry import compose, inverse
 from slam_core.graph.loop_closure import LoopMemory, close_loops
 from slam_core.occupancy_grid import OccupancyGrid
-from slam_core.pipelines.log_slam import best_updates
+from slam_core.pipelines.log_slam import BestUpdates, best_updates
 from slam_core.rbpf import RBPFConfig, RBPFSlam
 from slam_core.rbpf.hit_render import SparseHits
 from slam_core.rbpf.laser_mount import LaserMount
@@ -111,10 +111,9 @@ class LiveBackEnd:
         if len(self.scans) % self.config.loop_closure.submap_updates or self.busy:
             return
         best, scans = best_updates(slam), list(self.scans)
-        poses, odometry = best.poses, best.odometry.reshape(-1, 3)
+        poses, odometry = best.poses, self._odometry(best)
         if self.prior is not None:
             poses, scans = np.vstack([self.prior.poses, poses]), self.prior.scans + scans
-            odometry = np.vstack([self.prior.odometry, odometry])
         layout = slam.occupancy_map()
         self._thread = threading.Thread(target=self._solve, args=(poses, odometry, scans, layout),
                                         name="live-back-end", daemon=True)
@@ -134,11 +133,14 @@ class LiveBackEnd:
             poses = np.vstack([solved.poses[first:], compose(solved.correction, poses[done:]).reshape(-1, 3)])
         if first + len(poses) == 0:
             return None
-        odometry = best.odometry.reshape(-1, 3)
-        if self.prior is not None:
-            odometry = np.vstack([self.prior.odometry, odometry])
         scans = (self.prior.scans if self.prior is not None else []) + self.scans
-        return MappingSession(self.config, self.mount, np.vstack([old, poses]), odometry, scans, end_pose)
+        return MappingSession(self.config, self.mount, np.vstack([old, poses]), self._odometry(best), scans,
+                              end_pose)
+
+    def _odometry(self, best: BestUpdates) -> np.ndarray:
+        """The odometry at every update so far, the prior's first."""
+        odometry = best.odometry.reshape(-1, 3)
+        return odometry if self.prior is None else np.vstack([self.prior.odometry, odometry])
 
     def _solve(self, poses: np.ndarray, odometry: np.ndarray, scans: list[Scan],
                layout: OccupancyGrid) -> None:
