@@ -17,9 +17,12 @@ trajectory at its filter updates and
    to that update, weighted with the matcher's information (a match of the wide
    search that explains fewer is kept if the updates around it match where it
    puts them);
-3. optimises the pose graph of the loop edges and the chain of the filter's own
-   steps (:mod:`slam_core.graph.pose_graph`, Huber-robust on loop edges), drops
-   loop edges that still disagree, optimises again; the next round searches
+3. drops loop edges that imply a motion, against the edges of nearby updates into the
+   same submap, that neither the filter nor the odometry saw
+   (:mod:`slam_core.graph.edge_consistency`); optimises the pose graph of the loop edges
+   and the chain of the filter's own steps (:mod:`slam_core.graph.pose_graph`,
+   Huber-robust on loop edges), drops loop edges that still disagree, optimises
+   again; the next round searches
    again from the optimised poses, which finds the closures the drift hid (a pair
    whose search found nothing is searched again only if the optimisation moved
    it by a cell or an angular step).
@@ -46,6 +49,7 @@ import numpy as np
 
 from slam_core.geometry import compose, relative, wrap_angle
 from slam_core.graph.config import LoopClosureConfig
+from slam_core.graph.edge_consistency import inconsistent_edges
 from slam_core.graph.odometry_witness import step_disagreement
 from slam_core.graph.pose_graph import PoseGraph, chain_edges, optimize
 from slam_core.graph.wide_search import LEVELS, field_pyramid, wide_search
@@ -328,7 +332,15 @@ def close_loops(poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig 
             for s, found in pool.map(lambda item: try_submap(*item, estimate), sorted(pairs.items())):
                 for q, z, info in found:
                     edges[(int(submaps.anchors[s]), q)] = (z, info)
+        drop_inconsistent()
         return solve(estimate)
+
+    witnessed = None if odometry is None else mount.laser_poses(np.asarray(odometry, dtype=float))
+
+    def drop_inconsistent() -> None:
+        for key in inconsistent_edges(edges, poses, witnessed, config.consistency_tolerance):
+            del edges[key]
+            result.rejected_edges += 1
 
     settled: list[set] = []  # the edges of the last solve, if it dropped none
 
