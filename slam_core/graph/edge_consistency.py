@@ -3,12 +3,11 @@
 Two edges ``(a, q)`` and ``(a, q')`` into the same submap anchor imply the laser's motion from
 ``q`` to ``q'``: the second measured pose seen from the first. Both edges true, that motion is
 the one the robot made, which the filter's step and the wheel odometry's each saw: one of them
-may be wrong (a slid match, a stalled wheel), seldom both, and never by much more than a metre
-over a few updates. An edge that a look-alike place put in the wrong spot implies a motion that
-neither witness saw. So an edge is inconsistent when, against most of the edges into its anchor
-within ``reach`` updates of it, the implied motion lands farther than ``tolerance`` from both
-the filter's and the odometry's steps; an edge with no such neighbour is not judged here (the
-robust pose graph still is).
+may be wrong (a slid match, a stalled wheel), seldom both at once. An edge that a look-alike
+place put in the wrong spot implies a motion that neither witness saw. So an edge is
+inconsistent when, against most of the edges into its anchor within ``reach`` updates of it,
+the implied motion lands farther than ``tolerance`` from both the filter's and the odometry's
+steps; an edge with no such neighbour is not judged here (the robust pose graph still is).
 """
 
 from __future__ import annotations
