@@ -29,7 +29,7 @@ def true_edges(truth, anchor, updates, rng, noise=0.03):
 
 @settings(max_examples=60, deadline=None)
 @given(seed=st.integers(0, 10 ** 6), wrong=st.floats(1.2, 5.0))
-def test_a_false_edge_among_true_ones_is_dropped_and_no_true_one(seed, wrong):
+def test_a_false_edge_goes_and_a_true_one_only_if_the_false_one_was_its_only_neighbour(seed, wrong):
     rng = np.random.default_rng(seed)
     truth = tour(rng, 40)
     updates = sorted(rng.choice(np.arange(20, 40), size=rng.integers(3, 9), replace=False).tolist())
