@@ -260,6 +260,7 @@ def close_loops(poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig 
     path = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(poses[:, :2], axis=0).T))])
     reach = min(matcher.max_range, model.usable_range)
     loosen = None if odometry is None else step_disagreement(result.poses, odometry, config.witness_tolerance)
+    witnessed = None if odometry is None else mount.laser_poses(np.asarray(odometry, dtype=float))
     chain = _chain_information(poses, config, loosen)
     drift = ChainDrift(poses, path, config, sparse_step_scales(scans, reach, matcher))
     estimate = poses.copy()
@@ -334,8 +335,6 @@ def close_loops(poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig 
                     edges[(int(submaps.anchors[s]), q)] = (z, info)
         drop_inconsistent()
         return solve(estimate)
-
-    witnessed = None if odometry is None else mount.laser_poses(np.asarray(odometry, dtype=float))
 
     def drop_inconsistent() -> None:
         for key in inconsistent_edges(edges, poses, witnessed, config.consistency_tolerance):
