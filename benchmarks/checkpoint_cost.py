@@ -92,7 +92,7 @@ def published_hits(session: MappingSession, counts: CountMap, first: int):
     grid = counts.grid()
     laser = session.laser_mount.laser_poses(session.poses[first:])
     solved = counts.hit_sums(grid)
-    since = sparse_hit_sums(grid, laser, session.scans[first:], session.config.sensor.usable_range)
+    since = sparse_hit_sums(grid, laser, session.scans[first:], session.config.sensor)
     return solved.plus(since)
 
 

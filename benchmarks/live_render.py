@@ -85,7 +85,7 @@ def render(out: Path, mode: str) -> None:
             grid = counts.grid(layout)
         hits = time.process_time()
         if mode == "before":
-            hit_sums_on(grid, laser, scans, c.sensor.usable_range)
+            hit_sums_on(grid, laser, scans, c.sensor)
         else:
             counts.hit_sums(grid)
         cpu += np.diff([started, gridded, hits, time.process_time()])

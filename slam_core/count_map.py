@@ -27,7 +27,7 @@ import numpy as np
 
 from slam_core.jit import njit
 from slam_core.occupancy_grid import GROW_CHUNK, OccupancyGrid, SensorModel
-from slam_core.raycast import beam_endpoint, cleared_cells, ray_buffer_size, trace_ray
+from slam_core.raycast import FAR_TAIL, beam_endpoint, cleared_cells, far_gap, ray_buffer_size, trace_ray
 from slam_core.rbpf.hit_render import SparseHits, echo_endpoints
 from slam_core.scan import Scan
 
@@ -39,13 +39,13 @@ OCC, FREE = 0, 1
 
 
 @njit
-def _count_beams(counts, touched, ix0, iy0, inv, poses, angles, ranges, offsets, limits, usable_range,
+def _count_beams(counts, touched, ix0, iy0, inv, poses, angles, ranges, offsets, limits, near_range,
                  no_return_range, echo_margin):
     """Add the observations of scan ``s`` (beams ``offsets[s]:offsets[s + 1]``, from laser pose
-    ``poses[s]``) to zeroed ``counts[iy - iy0, ix - ix0, OCC | FREE]``, which must hold every traced
-    cell; the flat indices of the cells touched go to ``touched`` (as large as ``counts``' cells),
-    their number is returned."""
-    buf = np.empty((ray_buffer_size(usable_range, 1.0 / inv), 2), dtype=np.int64)
+    ``poses[s]``, its range limits and reach ``limits[s]``, see :func:`scan_limits`) to zeroed
+    ``counts[iy - iy0, ix - ix0, OCC | FREE]``, which must hold every traced cell; the flat indices
+    of the cells touched go to ``touched`` (as large as ``counts``' cells), their number is returned."""
+    buf = np.empty((ray_buffer_size(limits[:, 2].max(), 1.0 / inv), 2), dtype=np.int64)
     ny, nx = counts.shape[0], counts.shape[1]
     m = 0
     for s in range(poses.shape[0]):
@@ -53,15 +53,17 @@ def _count_beams(counts, touched, ix0, iy0, inv, poses, angles, ranges, offsets,
         gx0, gy0 = px * inv - ix0, py * inv - iy0
         for b in range(offsets[s], offsets[s + 1]):
             use, hit, ex, ey = beam_endpoint(px, py, pth, angles[b], ranges[b], limits[s, 0], limits[s, 1],
-                                             usable_range, no_return_range)
+                                             limits[s, 2], no_return_range)
             if not use:
                 continue
             gx1, gy1 = ex * inv - ix0, ey * inv - iy0
             n = trace_ray(gx0, gy0, gx1, gy1, buf)
             cleared = cleared_cells(buf, n, hit, gx1, gy1, echo_margin * inv)
+            gap_lo, gap_hi = far_gap(buf, n, hit, gx0, gy0, gx1, gy1, limits[s, 2], near_range, FAR_TAIL, inv)
             for k in range(n):
                 cx, cy = buf[k, 0], buf[k, 1]
-                if cx < 0 or cy < 0 or cx >= nx or cy >= ny or cleared <= k < n - 1:
+                if (cx < 0 or cy < 0 or cx >= nx or cy >= ny or cleared <= k < n - 1
+                        or gap_lo <= k < gap_hi):
                     continue
                 if counts[cy, cx, OCC] == 0 and counts[cy, cx, FREE] == 0:
                     touched[m] = cy * nx + cx
@@ -95,17 +97,24 @@ def _log_odds(counts, out, l_occ, l_free, l_min, l_max):
             out[iy, ix] = clamped_log_odds(n[OCC], n[FREE], l_occ, l_free, l_min, l_max)
 
 
-def _reach(laser_poses: np.ndarray, scans: list[Scan], model: SensorModel, inv: float) -> np.ndarray:
-    """``[ix0, iy0, ix1, iy1]``: the cells that tracing ``scans`` can touch, with a cell to spare."""
+def scan_limits(scans: list[Scan], model: SensorModel) -> np.ndarray:
+    """``(range_min, range_max, reach)`` of each scan: its sensor's limits and how far its echoes
+    are trusted (:meth:`~slam_core.occupancy_grid.SensorModel.reach`)."""
+    return np.array([(s.range_min, s.range_max, model.reach(s)) for s in scans], np.float64).reshape(-1, 3)
+
+
+def _reach(laser_poses: np.ndarray, scans: list[Scan], limits: np.ndarray, model: SensorModel,
+           inv: float) -> np.ndarray:
+    """``[ix0, iy0, ix1, iy1]``: the cells that tracing ``scans`` (their :func:`scan_limits`) can
+    touch, with a cell to spare."""
     lengths = [len(s) for s in scans]
     angles, ranges = np.concatenate([s.angles for s in scans]), np.concatenate([s.ranges for s in scans])
-    r_min = np.repeat([s.range_min for s in scans], lengths)
-    r_max = np.repeat([s.range_max for s in scans], lengths)
+    r_min, r_max, usable = (np.repeat(limits[:, k], lengths) for k in range(3))
     poses = np.repeat(laser_poses, lengths, axis=0)
     with np.errstate(invalid="ignore"):
         use = (ranges >= r_min) & (ranges > 0)
-    r = np.where(ranges[use] >= r_max[use], min(model.no_return_range, model.usable_range),
-                 np.minimum(ranges[use], model.usable_range))
+    r = np.where(ranges[use] >= r_max[use], np.minimum(model.no_return_range, usable[use]),
+                 np.minimum(ranges[use], usable[use]))
     a = poses[use, 2] + angles[use]
     xs = np.concatenate([poses[use, 0] + r * np.cos(a), laser_poses[:, 0]])
     ys = np.concatenate([poses[use, 1] + r * np.sin(a), laser_poses[:, 1]])
@@ -158,11 +167,11 @@ class SubmapCounts:
               model: SensorModel) -> SubmapCounts:
         inv = 1.0 / resolution
         laser_poses = np.ascontiguousarray(laser_poses, np.float64).reshape(-1, 3)
-        ix0, iy0, ix1, iy1 = _reach(laser_poses, scans, model, inv)
+        limits = scan_limits(scans, model)
+        ix0, iy0, ix1, iy1 = _reach(laser_poses, scans, limits, model, inv)
         counts = np.zeros((iy1 - iy0 + 1, ix1 - ix0 + 1, 2), np.int32)
         touched = np.empty(counts.shape[0] * counts.shape[1], np.int64)
         offsets = np.concatenate([[0], np.cumsum([len(s) for s in scans])]).astype(np.int64)
-        limits = np.array([(s.range_min, s.range_max) for s in scans], np.float64)
         m = _count_beams(counts, touched, float(ix0), float(iy0), inv, laser_poses,
                          np.concatenate([s.angles for s in scans]), np.concatenate([s.ranges for s in scans]),
                          offsets, limits, model.usable_range, model.no_return_range, model.echo_margin)
@@ -170,7 +179,7 @@ class SubmapCounts:
         found = counts.reshape(-1, 2)[touched]
         dtype = np.uint16 if found.max(initial=0) <= np.iinfo(np.uint16).max else np.int32
         corner, nx = np.array([ix0, iy0]), counts.shape[1]
-        ends = echo_endpoints(laser_poses, scans, model.usable_range)
+        ends = echo_endpoints(laser_poses, scans, model)
         hits = SparseHits.of_echoes(corner * resolution, counts.shape[:2], resolution, ends)
         every = np.concatenate([touched, hits.cells])  # an echo's cell is its ray's last, up to rounding
         columns, rows = every % nx, every // nx

@@ -14,10 +14,10 @@ from collections.abc import Iterator
 
 import numpy as np
 
-from slam_core.count_map import SubmapCounts, _reach, clamped_log_odds
+from slam_core.count_map import SubmapCounts, _reach, clamped_log_odds, scan_limits
 from slam_core.jit import njit
 from slam_core.occupancy_grid import GROW_CHUNK, OccupancyGrid, SensorModel
-from slam_core.raycast import beam_endpoint, cleared_cells, ray_buffer_size, trace_ray
+from slam_core.raycast import FAR_TAIL, beam_endpoint, cleared_cells, far_gap, ray_buffer_size, trace_ray
 from slam_core.scan import Scan
 
 #: Cells counted at a time (8 bytes each, and a float64 probability each while written).
@@ -26,12 +26,12 @@ BAND_CELLS = 1 << 21
 
 @njit
 def _count_band(occupied, free, row0, col0, ix0, iy0, nx, ny, inv, poses, angles, ranges, offsets, limits,
-                usable_range, no_return_range, echo_margin):
+                near_range, no_return_range, echo_margin):
     """Add the observations of scan ``s`` (beams ``offsets[s]:offsets[s + 1]`` from laser pose
     ``poses[s]``), traced as ``count_map._count_beams`` traces them into ``ny`` x ``nx`` cells from the
     absolute cell ``(ix0, iy0)``, to the band ``occupied`` / ``free`` whose cell ``[0, 0]`` is the
     absolute cell ``(col0, row0)``; cells outside the band are left out, and beams whose rows all are."""
-    buf = np.empty((ray_buffer_size(usable_range, 1.0 / inv), 2), dtype=np.int64)
+    buf = np.empty((ray_buffer_size(limits[:, 2].max(), 1.0 / inv), 2), dtype=np.int64)
     rows = occupied.shape[0]
     first, last = row0 - iy0, row0 - iy0 + rows - 1  # the band's rows, from the corner
     low, high = max(first, 0), min(last, ny - 1)  # ... that the traced cells hold
@@ -40,7 +40,7 @@ def _count_band(occupied, free, row0, col0, ix0, iy0, nx, ny, inv, poses, angles
         gx0, gy0 = px * inv - ix0, py * inv - iy0
         for b in range(offsets[s], offsets[s + 1]):
             use, hit, ex, ey = beam_endpoint(px, py, pth, angles[b], ranges[b], limits[s, 0], limits[s, 1],
-                                             usable_range, no_return_range)
+                                             limits[s, 2], no_return_range)
             if not use:
                 continue
             gy1 = ey * inv - iy0
@@ -50,9 +50,11 @@ def _count_band(occupied, free, row0, col0, ix0, iy0, nx, ny, inv, poses, angles
             gx1 = ex * inv - ix0
             n = trace_ray(gx0, gy0, gx1, gy1, buf)
             cleared = cleared_cells(buf, n, hit, gx1, gy1, echo_margin * inv)
+            gap_lo, gap_hi = far_gap(buf, n, hit, gx0, gy0, gx1, gy1, limits[s, 2], near_range, FAR_TAIL, inv)
             for k in range(n):
                 cx, cy = buf[k, 0], buf[k, 1]
-                if cx < 0 or cx >= nx or cy < low or cy > high or cleared <= k < n - 1:
+                if (cx < 0 or cx >= nx or cy < low or cy > high or cleared <= k < n - 1
+                        or gap_lo <= k < gap_hi):
                     continue
                 if hit and k == n - 1:
                     occupied[cy - first, cx + ix0 - col0] += 1
@@ -79,13 +81,15 @@ class MapBands:
         if len(laser_poses) != len(scans):
             raise ValueError(f"{len(laser_poses)} poses for {len(scans)} scans")
         self.resolution, self.model, self.band_cells = float(resolution), model, band_cells
-        self._blocks = []  # (poses, scans, the rows its cells span) of every submap that touched a cell
+        self._blocks = []  # (poses, scans, their limits, the rows its cells span) of every submap that
+        # touched a cell
         lows, highs = [], []
         for first in range(0, len(scans), submap_updates):
             block = slice(first, first + submap_updates)
             submap = SubmapCounts.trace(laser_poses[block], scans[block], resolution, model)
             if len(submap.cells):
-                self._blocks.append((submap.poses, scans[block], submap.lo[1], submap.hi[1]))
+                limits = scan_limits(scans[block], model)
+                self._blocks.append((submap.poses, scans[block], limits, submap.lo[1], submap.hi[1]))
                 lows.append(submap.lo)
                 highs.append(submap.hi)
         if lows:  # as CountMap's dense counts grow
@@ -113,12 +117,11 @@ class MapBands:
         occupied = np.zeros((rows.stop - rows.start, self.shape[1]), np.float32)
         free = np.zeros(occupied.shape, np.int32)
         row0, col0 = self.corner[1] + rows.start, self.corner[0]
-        for poses, scans, low, high in self._blocks:
+        for poses, scans, limits, low, high in self._blocks:
             if high < row0 or low >= row0 + occupied.shape[0]:
                 continue
-            ix0, iy0, ix1, iy1 = _reach(poses, scans, m, inv)
+            ix0, iy0, ix1, iy1 = _reach(poses, scans, limits, m, inv)
             offsets = np.concatenate([[0], np.cumsum([len(s) for s in scans])]).astype(np.int64)
-            limits = np.array([(s.range_min, s.range_max) for s in scans], np.float64)
             _count_band(occupied, free, row0, col0, ix0, iy0, ix1 - ix0 + 1, iy1 - iy0 + 1, inv, poses,
                         np.concatenate([s.angles for s in scans]), np.concatenate([s.ranges for s in scans]),
                         offsets, limits, m.usable_range, m.no_return_range, m.echo_margin)

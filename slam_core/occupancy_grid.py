@@ -35,6 +35,14 @@ class SensorModel:
     (glass and black surfaces also give no return, so this cap is short).
     ``echo_margin`` (m): a beam leaves the cells this close to its echo as they were
     (see :mod:`slam_core.raycast`).
+
+    With ``sparse_echoes`` set (0, the default, turns it off), a *sparse* scan, with fewer than
+    that many echoes within ``usable_range`` and most of its echoes beyond (an open hall, a square
+    between buildings), trusts its echoes further: out to the range within which it has that
+    many, at most ``far_range`` (:meth:`reach`). Every other scan is capped at ``usable_range``,
+    so the far echoes count only where the near ones are too few to match (and a sensor with few
+    beams is not always sparse). Off by default (see the README and ``benchmarks/RESULTS.md``:
+    measured on one log with open ground only).
     """
 
     p_hit: float = 0.7
@@ -44,6 +52,25 @@ class SensorModel:
     usable_range: float = 20.0
     no_return_range: float = 4.0
     echo_margin: float = 0.1
+    sparse_echoes: int = 0
+    far_range: float = 80.0
+
+    def reach(self, scan: Scan) -> float:
+        """How far ``scan``'s echoes are trusted (see the class)."""
+        r = scan.ranges[scan.valid]
+        near = np.count_nonzero(r <= self.usable_range)
+        if near >= self.sparse_echoes or 2 * near >= len(r):
+            return self.usable_range
+        far = np.sort(r[r <= self.far_range])
+        if len(far) == 0:
+            return self.usable_range
+        return max(self.usable_range, float(far[min(self.sparse_echoes, len(far)) - 1]))
+
+    def beam_reach(self, scan: Scan, cap: float) -> float:
+        """How far a scan matcher whose beams reach ``cap`` takes ``scan``'s: ``cap`` (within
+        ``usable_range``), or the whole :meth:`reach` of a sparse scan."""
+        reach = self.reach(scan)
+        return reach if reach > self.usable_range else min(cap, self.usable_range)
 
     @property
     def l_occ(self) -> float:
@@ -130,8 +157,8 @@ class OccupancyGrid:
         self._grow_for(scan, pose)
         integrate_scan_dense(self.data, self.origin[0], self.origin[1], self.resolution, pose,
                              scan.angles, scan.ranges, scan.range_min, scan.range_max,
-                             m.usable_range, m.no_return_range, m.echo_margin, m.l_free, m.l_occ, m.l_min,
-                             m.l_max)
+                             m.reach(scan), m.usable_range, m.no_return_range, m.echo_margin, m.l_free,
+                             m.l_occ, m.l_min, m.l_max)
 
     def _grow_for(self, scan: Scan, pose: np.ndarray) -> None:
         self.ensure_contains(*self.reach_of(scan, pose))
@@ -143,7 +170,7 @@ class OccupancyGrid:
         usable = (r >= scan.range_min) & (r > 0)
         m = self.model
         r = np.where(r[usable] >= scan.range_max, m.no_return_range, r[usable])
-        r = np.minimum(r, m.usable_range)
+        r = np.minimum(r, m.reach(scan))
         a = pose[2] + scan.angles[usable]
         xs = np.append(pose[0] + r * np.cos(a), pose[0])
         ys = np.append(pose[1] + r * np.sin(a), pose[1])

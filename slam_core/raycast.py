@@ -33,6 +33,9 @@ import numpy as np
 
 from slam_core.jit import njit
 
+#: How far (m) before a far echo its beam clears the cells (see :func:`far_gap`).
+FAR_TAIL = 0.5
+
 
 @njit
 def trace_ray(gx0, gy0, gx1, gy1, out):
@@ -119,6 +122,30 @@ def beam_endpoint(px, py, pth, angle, rng, range_min, range_max, usable_range, n
 
 
 @njit
+def far_gap(buf, n, hit, gx0, gy0, gx1, gy1, usable_range, near_range, tail, inv):
+    """``(lo, hi)``: the cells ``lo <= k < hi`` of a ray traced from ``(gx0, gy0)`` to ``(gx1, gy1)``
+    (cell units, ``n`` cells in ``buf``) that it leaves as they were, in a scan whose echoes are
+    trusted beyond ``near_range`` (its ``usable_range`` is larger, see
+    :meth:`~slam_core.occupancy_grid.SensorModel.reach`): past ``near_range`` such a beam clears
+    only the last ``tail`` metres before its echo (none without an echo). Its far echo marks a
+    wall, but the free space it crossed out there costs cells in every particle's map and says
+    little. ``(0, 0)`` for every other scan."""
+    if usable_range <= near_range:
+        return 0, 0
+    near2 = (near_range * inv) ** 2
+    lo = 0
+    while lo < n and (buf[lo, 0] + 0.5 - gx0) ** 2 + (buf[lo, 1] + 0.5 - gy0) ** 2 <= near2:
+        lo += 1
+    if not hit:
+        return lo, n
+    tail2 = (tail * inv) ** 2
+    hi = n - 1
+    while hi > lo and (buf[hi - 1, 0] + 0.5 - gx1) ** 2 + (buf[hi - 1, 1] + 0.5 - gy1) ** 2 < tail2:
+        hi -= 1
+    return lo, hi
+
+
+@njit
 def cleared_cells(buf, n, hit, gx1, gy1, margin):
     """How many of the ``n`` cells traced to ``(gx1, gy1)`` (cell units) in ``buf`` the beam clears:
     all of them without an echo; with one, those before the cells whose centre lies within
@@ -138,7 +165,7 @@ def cleared_cells(buf, n, hit, gx1, gy1, margin):
 
 @njit
 def integrate_scan_dense(logodds, origin_x, origin_y, resolution, pose, angles, ranges,
-                         range_min, range_max, usable_range, no_return_range, echo_margin,
+                         range_min, range_max, usable_range, near_range, no_return_range, echo_margin,
                          l_free, l_occ, l_min, l_max):
     """Apply the inverse sensor model of one scan to a dense log-odds grid in place.
 
@@ -157,10 +184,11 @@ def integrate_scan_dense(logodds, origin_x, origin_y, resolution, pose, angles, 
         gx1, gy1 = (ex - origin_x) * inv, (ey - origin_y) * inv
         n = trace_ray(gx0, gy0, gx1, gy1, buf)
         cleared = cleared_cells(buf, n, hit, gx1, gy1, echo_margin * inv)
+        gap_lo, gap_hi = far_gap(buf, n, hit, gx0, gy0, gx1, gy1, usable_range, near_range, FAR_TAIL, inv)
         for k in range(n):
             cx = buf[k, 0]
             cy = buf[k, 1]
-            if cx < 0 or cy < 0 or cx >= nx or cy >= ny or cleared <= k < n - 1:
+            if cx < 0 or cy < 0 or cx >= nx or cy >= ny or cleared <= k < n - 1 or gap_lo <= k < gap_hi:
                 continue
             delta = l_occ if (hit and k == n - 1) else l_free
             v = logodds[cy, cx] + delta

@@ -84,7 +84,7 @@ class MappingSession:
         """The updates' per-cell hit sums on ``grid``'s cells (as :meth:`grid` renders them), for a
         particle filter seeded with that map (:mod:`slam_core.rbpf.hit_render`)."""
         return sparse_hit_sums(grid, self.laser_mount.laser_poses(self.poses), self.scans,
-                               self.config.sensor.usable_range)
+                               self.config.sensor)
 
 
 def write_session(session: MappingSession, file) -> None:

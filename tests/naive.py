@@ -10,6 +10,8 @@ import math
 
 import numpy as np
 
+from slam_core.raycast import FAR_TAIL
+
 
 def ray_cells(gx0, gy0, gx1, gy1):
     """Cells ``[(ix, iy), ...]`` crossed by the segment, ordered by entry parameter.
@@ -54,24 +56,32 @@ def integrate_scan(logodds, origin, resolution, pose, scan, model):
     documents: ``l_free`` on every traced cell of a beam, ``l_occ`` instead on its
     echo cell, nothing on the other cells whose centre lies within ``echo_margin`` of
     the echo, each sum clamped to ``[l_min, l_max]``. Raises if a cell lies outside.
+    Echoes count up to the scan's reach (``SensorModel.reach``); where that is beyond
+    ``usable_range``, a beam leaves the cells from the first whose centre lies beyond
+    ``usable_range`` from the sensor as they were, up to the cells before its echo whose
+    centres lie within ``FAR_TAIL`` of it (all of them without an echo).
     """
     px, py, pth = (float(v) for v in pose)
     ox, oy = float(origin[0]), float(origin[1])
+    reach = model.reach(scan)
     for angle, rng in zip(scan.angles, scan.ranges, strict=True):
         rng = float(rng)
         if math.isnan(rng) or rng < scan.range_min or rng <= 0.0:
             continue
         if rng >= scan.range_max:
-            hit, r = False, min(model.no_return_range, model.usable_range)
-        elif rng > model.usable_range:
-            hit, r = False, model.usable_range
+            hit, r = False, min(model.no_return_range, reach)
+        elif rng > reach:
+            hit, r = False, reach
         else:
             hit, r = True, rng
         a = pth + float(angle)
         ex, ey = px + r * math.cos(a), py + r * math.sin(a)
         inv = 1.0 / resolution
         cells = ray_cells((px - ox) * inv, (py - oy) * inv, (ex - ox) * inv, (ey - oy) * inv)
+        gap = _far_gap(cells, ox, oy, resolution, (px, py), (ex, ey), hit, reach, model.usable_range)
         for k, (ix, iy) in enumerate(cells):
+            if k in gap:
+                continue
             if not (0 <= iy < logodds.shape[0] and 0 <= ix < logodds.shape[1]):
                 raise IndexError(f"cell {(ix, iy)} outside grid {logodds.shape}")
             echo = hit and k == len(cells) - 1
@@ -81,6 +91,20 @@ def integrate_scan(logodds, origin, resolution, pose, scan, model):
             delta = model.l_occ if echo else model.l_free
             v = float(logodds[iy, ix]) + delta
             logodds[iy, ix] = min(max(v, model.l_min), model.l_max)
+
+
+def _far_gap(cells, ox, oy, resolution, sensor, echo, hit, reach, near):
+    """The indices of the cells a beam of a scan trusted to ``reach`` leaves alone beyond ``near``."""
+    if reach <= near:
+        return range(0)
+    centres = [(ox + (ix + 0.5) * resolution, oy + (iy + 0.5) * resolution) for ix, iy in cells]
+    lo = next((k for k, c in enumerate(centres) if math.dist(c, sensor) > near), len(cells))
+    if not hit:
+        return range(lo, len(cells))
+    hi = len(cells) - 1
+    while hi > lo and math.dist(centres[hi - 1], echo) < FAR_TAIL:
+        hi -= 1
+    return range(lo, hi)
 
 
 def nearest_indices(times, queries, max_dt):

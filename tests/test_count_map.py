@@ -59,7 +59,7 @@ def test_the_map_is_the_clamped_sum_of_every_beam_and_its_hit_sums_the_echoes():
     assert np.count_nonzero(oracle) > 3000  # the clamps bite on both sides:
     assert np.isclose(oracle, MODEL.l_max).sum() > 50 and np.isclose(oracle, MODEL.l_min).sum() > 1000
     np.testing.assert_allclose(mine, oracle, atol=1e-4)
-    expected = hit_sums_on(grid, poses, scans, MODEL.usable_range)
+    expected = hit_sums_on(grid, poses, scans, MODEL)
     hits = counts.hit_sums(grid)
     assert expected[..., 2].sum() > 1000
     np.testing.assert_allclose(hits.dense(), expected, atol=1e-5)

@@ -47,7 +47,7 @@ def test_rendered_hit_sums_equal_the_filter_maps_own():
     poses, scans, grid, expected = filter_mapped(7, 25)
     assert expected[..., HIT_N].sum() > 1500  # many echoes, some cells hit many times
     hits = np.zeros_like(expected)
-    outside = add_hit_sums(hits, grid.origin, grid.resolution, poses, scans, MODEL.usable_range)
+    outside = add_hit_sums(hits, grid.origin, grid.resolution, poses, scans, MODEL)
     assert outside == 0
     assert np.array_equal(hits[..., HIT_N], expected[..., HIT_N])
     np.testing.assert_allclose(hits, expected, atol=2e-5)
@@ -55,7 +55,7 @@ def test_rendered_hit_sums_equal_the_filter_maps_own():
     wide = np.zeros((expected.shape[0] + 10, expected.shape[1] + 6, 3), np.float32)
     origin = grid.origin - np.array([4, 7]) * grid.resolution
     for part in (slice(0, 11), slice(11, None)):
-        add_hit_sums(wide, origin, grid.resolution, poses[part], scans[part], MODEL.usable_range)
+        add_hit_sums(wide, origin, grid.resolution, poses[part], scans[part], MODEL)
     np.testing.assert_allclose(wide[7:7 + expected.shape[0], 4:4 + expected.shape[1]], expected, atol=2e-5)
     assert wide[..., HIT_N].sum() == expected[..., HIT_N].sum()
 
@@ -63,7 +63,7 @@ def test_rendered_hit_sums_equal_the_filter_maps_own():
 def test_echoes_outside_the_grid_are_counted_not_added():
     scan = Scan(np.array([0.0, np.pi / 2, np.pi]), np.array([1.0, 1.0, 1.0]), 0.05, 30.0)
     hits = np.zeros((10, 30, 3), np.float32)  # x from 0 to 1.5 m, y from 0 to 0.5 m
-    outside = add_hit_sums(hits, (0.0, 0.0), 0.05, np.array([[0.23, 0.26, 0.0]]), [scan], 20.0)
+    outside = add_hit_sums(hits, (0.0, 0.0), 0.05, np.array([[0.23, 0.26, 0.0]]), [scan], MODEL)
     assert outside == 2  # up (y = 1.26) and back (x = -0.77)
     [(iy, ix)] = np.argwhere(hits[..., HIT_N] > 0)
     assert (iy, ix) == (5, 24)
@@ -72,7 +72,7 @@ def test_echoes_outside_the_grid_are_counted_not_added():
 
 def test_sparse_hit_sums_equal_the_filter_maps_own_and_move_onto_larger_grids():
     poses, scans, grid, expected = filter_mapped(9, 20)
-    first, second = (sparse_hit_sums(grid, poses[part], scans[part], MODEL.usable_range)
+    first, second = (sparse_hit_sums(grid, poses[part], scans[part], MODEL)
                      for part in (slice(0, 9), slice(9, None)))
     both = first.plus(second)
     assert len(both.cells) < len(first.cells) + len(second.cells)  # cells hit in both parts, summed

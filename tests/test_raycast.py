@@ -29,7 +29,7 @@ def integrate(grid_shape, pose, angles, ranges, model=MODEL, range_min=0.1, rang
     data = np.zeros(grid_shape, np.float32) if data is None else data
     integrate_scan_dense(data, origin[0], origin[1], resolution, np.asarray(pose, float),
                          np.asarray(angles, float), np.asarray(ranges, float), range_min, range_max,
-                         model.usable_range, model.no_return_range, model.echo_margin,
+                         model.usable_range, model.usable_range, model.no_return_range, model.echo_margin,
                          model.l_free, model.l_occ, model.l_min, model.l_max)
     return data
 

@@ -10,7 +10,7 @@ from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 
 from slam_core.occupancy_grid import OccupancyGrid
-from slam_core.raycast import beam_endpoint, ray_buffer_size, trace_ray
+from slam_core.raycast import FAR_TAIL, beam_endpoint, far_gap, ray_buffer_size, trace_ray
 from slam_core.rbpf.tiled_map import HIT_N, HIT_X, HIT_Y, TILE, TiledMaps
 from slam_core.scan import Scan
 
@@ -20,14 +20,19 @@ def reference_integrate(maps: TiledMaps, cells: dict, pose, scan: Scan) -> None:
     m, res = maps.model, maps.resolution
     ox, oy = maps.origin
     shift = np.round(maps.origin / res).astype(int)
-    buf = np.empty((ray_buffer_size(m.usable_range, res), 2), np.int64)
+    reach = m.reach(scan)
+    buf = np.empty((ray_buffer_size(reach, res), 2), np.int64)
     for angle, rng in zip(scan.angles, scan.ranges, strict=True):
         use, hit, ex, ey = beam_endpoint(pose[0], pose[1], pose[2], angle, rng, scan.range_min,
-                                         scan.range_max, m.usable_range, m.no_return_range)
+                                         scan.range_max, reach, m.no_return_range)
         if not use:
             continue
-        n = trace_ray((pose[0] - ox) / res, (pose[1] - oy) / res, (ex - ox) / res, (ey - oy) / res, buf)
+        gx0, gy0, gx1, gy1 = (pose[0] - ox) / res, (pose[1] - oy) / res, (ex - ox) / res, (ey - oy) / res
+        n = trace_ray(gx0, gy0, gx1, gy1, buf)
+        gap = range(*far_gap(buf, n, hit, gx0, gy0, gx1, gy1, reach, m.usable_range, FAR_TAIL, 1.0 / res))
         for k in range(n):
+            if k in gap:
+                continue
             ix, iy = int(buf[k, 0]), int(buf[k, 1])
             cell = cells.setdefault((ix + shift[0], iy + shift[1]), [np.float32(0.0)] * 4)
             if hit and k == n - 1:

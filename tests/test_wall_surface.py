@@ -22,14 +22,14 @@ def test_a_beam_leaves_the_cells_near_its_echo_as_they_were():
     g = np.zeros((1, 8), np.float32)
     # from the centre of cell 0 straight along x, echo at x = 5.5: cell 4's centre is 1.0 from it
     integrate_scan_dense(g, 0.0, 0.0, 1.0, np.array([0.5, 0.5, 0.0]), np.array([0.0]), np.array([5.0]),
-                         0.1, 80.0, model.usable_range, model.no_return_range, model.echo_margin,
-                         model.l_free, model.l_occ, model.l_min, model.l_max)
+                         0.1, 80.0, model.usable_range, model.usable_range, model.no_return_range,
+                         model.echo_margin, model.l_free, model.l_occ, model.l_min, model.l_max)
     expected = np.array([[model.l_free] * 4 + [0.0, model.l_occ, 0.0, 0.0]], np.float32)
     assert np.array_equal(g, expected)
     # a beam without an echo clears all of its cells
     g[:] = 0.0
     integrate_scan_dense(g, 0.0, 0.0, 1.0, np.array([0.5, 0.5, 0.0]), np.array([0.0]), np.array([80.0]),
-                         0.1, 80.0, model.usable_range, 5.0, model.echo_margin,
+                         0.1, 80.0, model.usable_range, model.usable_range, 5.0, model.echo_margin,
                          model.l_free, model.l_occ, model.l_min, model.l_max)
     assert np.array_equal(g, np.array([[F32(model.l_free)] * 6 + [0.0, 0.0]], np.float32))
 

@@ -95,7 +95,7 @@ class LoopClosing:
         hits = solved.hit_sums.on(grid.origin, grid.shape, grid.resolution)  # the grid only grows
         done = len(solved.poses)
         laser = session.laser_mount.laser_poses(session.poses[done:])
-        return hits.plus(sparse_hit_sums(grid, laser, session.scans[done:], grid.model.usable_range))
+        return hits.plus(sparse_hit_sums(grid, laser, session.scans[done:], grid.model))
 
     def wait(self) -> None:
         """Until the running solve (if any) is done."""

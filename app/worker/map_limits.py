@@ -33,7 +33,7 @@ def map_box(estimator, fallback_grid=None) -> Box | None:
 
 def scan_reach(scan, model: SensorModel) -> float:
     """How far from the robot ``scan`` writes into the map (as :meth:`TiledMaps.integrate` grows it)."""
-    return min(model.usable_range, max(model.no_return_range, float(np.max(scan.ranges, initial=0.0))))
+    return min(model.reach(scan), max(model.no_return_range, float(np.max(scan.ranges, initial=0.0))))
 
 
 def check_room(box: Box | None, pose, reach: float, resolution: float, capacity_cells: int) -> None:

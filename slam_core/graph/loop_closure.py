@@ -276,7 +276,7 @@ def close_loops(poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig 
 
     def query_rows(q: int) -> tuple[np.ndarray, np.ndarray]:
         if q not in rows:
-            rows[q] = (beam_rows(scans[q], reach, matcher.max_beams),
+            rows[q] = (beam_rows(scans[q], model.beam_reach(scans[q], matcher.max_range), matcher.max_beams),
                        beam_rows(scans[q], min(matcher.coarse_range, reach), matcher.coarse_beams)[:, :2])
         return rows[q]
 
@@ -405,7 +405,6 @@ def scan_poses(submaps: Submaps, update_poses: np.ndarray, update_of_scan: np.nd
     model = model or SensorModel()
     mount = LaserMount.of(laser_mount)
     params = matcher.packed()
-    reach = min(matcher.max_range, model.usable_range)
     out = per_scan_poses(update_of_scan, scan_odometry, update_odometry, update_poses)
     if not config.enabled:
         return out
@@ -420,7 +419,7 @@ def scan_poses(submaps: Submaps, update_poses: np.ndarray, update_of_scan: np.nd
         fine = sub.fine()
         anchor = update_poses[sub.anchor]
         for k in ks:
-            beams = beam_rows(scans[k], reach, config.refine_beams)
+            beams = beam_rows(scans[k], model.beam_reach(scans[k], matcher.max_range), config.refine_beams)
             if len(beams) == 0:
                 continue
             start = sub.in_frame(anchor, out[k])

@@ -263,7 +263,7 @@ class RBPFSlam:
         reported = relative(self.poses[lead], pred)
         if matched < m.good_match * len(beams) and self._after_forced:
             best, best_ll, matched = self._take_back(fine, lead, reported, beams, best, best_ll, matched)
-        points = self._matching_beams(scan, m.coarse_range, m.coarse_beams)[:, :2]
+        points = beam_rows(scan, min(m.coarse_range, self.config.sensor.usable_range), m.coarse_beams)[:, :2]
         trusted = self._fits_well(matched, len(beams))
         if trusted or len(points) == 0:
             return relative(pred, best), trusted
@@ -330,4 +330,4 @@ class RBPFSlam:
         return best, best_ll, matched
 
     def _matching_beams(self, scan: Scan, max_range: float, max_beams: int) -> np.ndarray:
-        return beam_rows(scan, min(max_range, self.config.sensor.usable_range), max_beams)
+        return beam_rows(scan, self.config.sensor.beam_reach(scan, max_range), max_beams)

@@ -5,7 +5,7 @@ from its cell's lower-left corner and a count (``HIT_X``, ``HIT_Y``, ``HIT_N``);
 aligns to the mean endpoint. A map rendered from other poses (the loop-closing back end's
 optimised ones) has no such sums; :func:`add_hit_sums` draws them for every beam of every scan
 in one vectorised pass, with the same rules as the filter's kernels: an echo counts when
-``range_min <= r < range_max`` and ``r <= usable_range``, in the cell ``floor((end - origin) /
+``range_min <= r < range_max`` and ``r`` within its scan's reach, in the cell ``floor((end - origin) /
 resolution)`` that the ray tracer ends in.
 """
 
@@ -15,13 +15,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from slam_core.occupancy_grid import SensorModel
 from slam_core.rbpf.tiled_map import HIT_N, HIT_X, HIT_Y
 from slam_core.scan import Scan
 
 
-def echo_endpoints(laser_poses: np.ndarray, scans: list[Scan], usable_range: float) -> np.ndarray:
-    """World endpoints ``(m, 2)`` of the echoes (beams that mark a cell) of ``scans`` seen from
-    ``laser_poses``."""
+def echo_endpoints(laser_poses: np.ndarray, scans: list[Scan], model: SensorModel) -> np.ndarray:
+    """World endpoints ``(m, 2)`` of the echoes (beams that mark a cell, within the sensor
+    ``model``'s :meth:`~slam_core.occupancy_grid.SensorModel.reach` of their scan) of ``scans``
+    seen from ``laser_poses``."""
     if not scans:
         return np.zeros((0, 2))
     counts = np.array([len(s.ranges) for s in scans])
@@ -29,6 +31,7 @@ def echo_endpoints(laser_poses: np.ndarray, scans: list[Scan], usable_range: flo
     ranges = np.concatenate([s.ranges for s in scans]).astype(np.float64)
     range_min = np.repeat([s.range_min for s in scans], counts)
     range_max = np.repeat([s.range_max for s in scans], counts)
+    usable_range = np.repeat([model.reach(s) for s in scans], counts)
     with np.errstate(invalid="ignore"):
         echo = (ranges >= range_min) & (ranges > 0.0) & (ranges < range_max) & (ranges <= usable_range)
     poses = np.asarray(laser_poses, np.float64).reshape(-1, 3)[np.repeat(np.arange(len(scans)), counts)[echo]]
@@ -37,13 +40,13 @@ def echo_endpoints(laser_poses: np.ndarray, scans: list[Scan], usable_range: flo
 
 
 def add_hit_sums(hits: np.ndarray, origin, resolution: float, laser_poses: np.ndarray, scans: list[Scan],
-                 usable_range: float) -> int:
+                 model: SensorModel) -> int:
     """Add the hit sums of ``scans`` (from ``laser_poses``) to ``hits`` ``(ny, nx, 3)`` (C-contiguous),
     a grid's cells from ``origin``; returns the number of echoes that fell outside it (not added)."""
     if not hits.flags.c_contiguous:
         raise ValueError("hit sums must be one C-contiguous array (they are added in place)")
     ny, nx = hits.shape[:2]
-    end = echo_endpoints(laser_poses, scans, usable_range)
+    end = echo_endpoints(laser_poses, scans, model)
     inv = 1.0 / resolution
     ix = np.floor((end[:, 0] - origin[0]) * inv).astype(np.int64)
     iy = np.floor((end[:, 1] - origin[1]) * inv).astype(np.int64)
@@ -57,10 +60,10 @@ def add_hit_sums(hits: np.ndarray, origin, resolution: float, laser_poses: np.nd
     return int(np.count_nonzero(~inside))
 
 
-def hit_sums_on(grid, laser_poses: np.ndarray, scans: list[Scan], usable_range: float) -> np.ndarray:
+def hit_sums_on(grid, laser_poses: np.ndarray, scans: list[Scan], model: SensorModel) -> np.ndarray:
     """Fresh hit sums ``(ny, nx, 3)`` of ``scans`` (from ``laser_poses``) on ``grid``'s cells."""
     hits = np.zeros((*grid.shape, 3), np.float32)
-    add_hit_sums(hits, grid.origin, grid.resolution, laser_poses, scans, usable_range)
+    add_hit_sums(hits, grid.origin, grid.resolution, laser_poses, scans, model)
     return hits
 
 
@@ -143,7 +146,7 @@ class SparseHits:
                             np.vstack([self.values, other.values]).astype(np.float64))
 
 
-def sparse_hit_sums(grid, laser_poses: np.ndarray, scans: list[Scan], usable_range: float) -> SparseHits:
+def sparse_hit_sums(grid, laser_poses: np.ndarray, scans: list[Scan], model: SensorModel) -> SparseHits:
     """:func:`hit_sums_on`, sparse: the hit sums of ``scans`` (from ``laser_poses``) on ``grid``'s cells."""
     return SparseHits.of_echoes(grid.origin, grid.shape, grid.resolution,
-                                echo_endpoints(laser_poses, scans, usable_range))
+                                echo_endpoints(laser_poses, scans, model))

@@ -32,7 +32,7 @@ import numpy as np
 
 from slam_core.jit import njit, split
 from slam_core.occupancy_grid import OccupancyGrid, SensorModel
-from slam_core.raycast import beam_endpoint, ray_buffer_size, trace_ray
+from slam_core.raycast import FAR_TAIL, beam_endpoint, far_gap, ray_buffer_size, trace_ray
 
 TILE_BITS = 4
 TILE = 1 << TILE_BITS
@@ -125,8 +125,10 @@ def _copy_block(hit_blocks, new, h):
 @njit
 def _integrate_map(p, tables, refs, lo, hit_of, hit_blocks, stack, bottom, top, hit_stack, hit_bottom,
                    hit_top, source, base, start, origin_x, origin_y, resolution, poses, angles, ranges,
-                   range_min, range_max, usable_range, no_return_range, l_free, l_occ, l_min, l_max):
-    """Integrate the scan into map ``p`` from beam ``start[p, 0]``'s cell ``start[p, 1]`` on, in
+                   range_min, range_max, usable_range, near_range, no_return_range, l_free, l_occ, l_min,
+                   l_max):
+    """Integrate the scan (its echoes trusted to ``usable_range``; beyond ``near_range`` see
+    :func:`~slam_core.raycast.far_gap`) into map ``p`` from beam ``start[p, 0]``'s cell ``start[p, 1]`` on, in
     one pass: a tile that is not the map's own is copied (or created) when a write first changes
     it, into a tile taken from ``stack[bottom[p]:top[p]]`` (top down; ``source`` records what
     it copies), a hit block likewise. Shared tiles are only read, and their reference counts
@@ -144,13 +146,15 @@ def _integrate_map(p, tables, refs, lo, hit_of, hit_blocks, stack, bottom, top, 
         if not use:
             first = 0
             continue
-        n = trace_ray(gx0, gy0, (ex - origin_x) * inv, (ey - origin_y) * inv, buf)
+        gx1, gy1 = (ex - origin_x) * inv, (ey - origin_y) * inv
+        n = trace_ray(gx0, gy0, gx1, gy1, buf)
+        gap_lo, gap_hi = far_gap(buf, n, hit, gx0, gy0, gx1, gy1, usable_range, near_range, FAR_TAIL, inv)
         for k in range(first, n):
             ix = buf[k, 0]
             iy = buf[k, 1]
             ty = iy >> TILE_BITS
             tx = ix >> TILE_BITS
-            if ix < 0 or iy < 0 or ty >= n_ty or tx >= n_tx:
+            if ix < 0 or iy < 0 or ty >= n_ty or tx >= n_tx or gap_lo <= k < gap_hi:
                 continue
             cy = iy & (TILE - 1)
             cx = ix & (TILE - 1)
@@ -203,14 +207,14 @@ def _integrate_map(p, tables, refs, lo, hit_of, hit_blocks, stack, bottom, top, 
 @njit
 def _integrate(first, stop, tables, refs, lo, hit_of, hit_blocks, stack, bottom, top, hit_stack, hit_bottom,
                hit_top, source, base, start, origin_x, origin_y, resolution, poses, angles, ranges, range_min,
-               range_max, usable_range, no_return_range, l_free, l_occ, l_min, l_max):
+               range_max, usable_range, near_range, no_return_range, l_free, l_occ, l_min, l_max):
     """:func:`_integrate_map` for maps ``first`` to ``stop - 1`` not yet done (``start[p, 0] >= 0``);
     ``start`` becomes where each stopped. Maps are split over threads (:func:`slam_core.jit.split`)."""
     for p in range(first, stop):
         if start[p, 0] >= 0:
             b, k = _integrate_map(p, tables, refs, lo, hit_of, hit_blocks, stack, bottom, top, hit_stack,
                                   hit_bottom, hit_top, source, base, start, origin_x, origin_y, resolution,
-                                  poses, angles, ranges, range_min, range_max, usable_range,
+                                  poses, angles, ranges, range_min, range_max, usable_range, near_range,
                                   no_return_range, l_free, l_occ, l_min, l_max)
             start[p, 0] = b
             start[p, 1] = k
@@ -458,7 +462,8 @@ class TiledMaps:
         """
         poses = np.ascontiguousarray(poses, dtype=np.float64).reshape(self.n_maps, 3)
         m = self.model
-        reach = min(m.usable_range, max(m.no_return_range, float(np.max(scan.ranges, initial=0.0))))
+        usable = m.reach(scan)
+        reach = min(usable, max(m.no_return_range, float(np.max(scan.ranges, initial=0.0))))
         self.ensure_contains(poses[:, 0].min() - reach, poses[:, 1].min() - reach,
                              poses[:, 0].max() + reach, poses[:, 1].max() + reach)
         tiles = np.empty(self.n_maps, np.int64)
@@ -480,8 +485,8 @@ class TiledMaps:
             split(_integrate, self.n_maps, self.tables, self.refs, self.lo, self.hit_of, self.hit_blocks,
                   self.free_stack, bottom, top, self.hit_free_stack, hit_bottom, hit_top, source, base, start,
                   self.origin[0], self.origin[1], self.resolution, poses, scan.angles, scan.ranges,
-                  scan.range_min, scan.range_max, m.usable_range, m.no_return_range, m.l_free, m.l_occ,
-                  m.l_min, m.l_max)
+                  scan.range_min, scan.range_max, usable, m.usable_range, m.no_return_range, m.l_free,
+                  m.l_occ, m.l_min, m.l_max)
             _settle(self.refs, self.hit_of, source, self.free_stack, self.free_top, base, bottom, ceiling,
                     top, self.hit_free_stack, self.hit_free_top, hit_base, hit_bottom, hit_top)
             took[:, 0] += ceiling - top
