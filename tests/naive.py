@@ -93,6 +93,18 @@ def integrate_scan(logodds, origin, resolution, pose, scan, model):
             logodds[iy, ix] = min(max(v, model.l_min), model.l_max)
 
 
+def check_integrate(grid, scan, pose) -> None:
+    """Integrate ``scan`` at ``pose`` into ``grid`` and assert that the result is exactly what
+    :func:`integrate_scan` makes of the grid's old cells (moved as the grid grew)."""
+    before, old_origin = grid.data.copy(), grid.origin.copy()
+    grid.integrate(scan, pose)
+    expected = np.zeros_like(grid.data)
+    ox, oy = np.round((old_origin - grid.origin) / grid.resolution).astype(int)
+    expected[oy:oy + before.shape[0], ox:ox + before.shape[1]] = before
+    integrate_scan(expected, grid.origin, grid.resolution, pose, scan, grid.model)
+    assert np.array_equal(expected, grid.data)
+
+
 def _far_gap(cells, ox, oy, resolution, sensor, echo, hit, reach, near):
     """The indices of the cells a beam of a scan trusted to ``reach`` leaves alone beyond ``near``."""
     if reach <= near:
