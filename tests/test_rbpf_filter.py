@@ -203,3 +203,20 @@ def test_only_the_tiles_with_echoes_hold_endpoint_sums(synthetic_run):
         counts = maps.hit_blocks[blocks[blocks >= 0], ..., HIT_N]
         assert np.all(counts.reshape(len(counts), -1).max(axis=1) >= 1)
         assert int(np.sum(maps.hit_sums(i)[..., HIT_N] > 0)) == int(np.sum(counts > 0))
+
+
+@pytest.mark.parametrize("turned, applied", [(0.05, True), (0.7, False)])
+def test_a_poor_lead_match_turns_the_particles_only_within_the_search_window(turned, applied):
+    """The leading particle's match that does not fit well gives the odometry's error only if it
+    turns the robot within the coarse search's window (0.2 rad here): a far-off poor match would
+    turn every particle's start with it."""
+    slam = RBPFSlam(RBPFConfig(particles=3), seed=0)
+    slam.step(np.zeros(3), room_scan(np.zeros(3)))
+    far = Scan(np.linspace(-1, 1, 60), np.full(60, 15.0), 0.1, 80.0)  # echoes beyond the coarse search
+    predicted = np.tile([0.1, 0.0, 0.0], (3, 1))
+    rotated = predicted[0] + np.array([0.0, 0.0, turned])
+    slam._likeliest = lambda *args: (rotated, -100.0, 0)  # a match that fits no beam
+    beams = slam._matching_beams(far, 20.0, 180)
+    error, trusted = slam._odometry_error(predicted, np.zeros(3), far, beams)
+    assert not trusted
+    np.testing.assert_allclose(error, [0.0, 0.0, turned] if applied else np.zeros(3), atol=1e-12)

@@ -265,11 +265,11 @@ class RBPFSlam:
             best, best_ll, matched = self._take_back(fine, lead, reported, beams, best, best_ll, matched)
         points = beam_rows(scan, min(m.coarse_range, self.config.sensor.usable_range), m.coarse_beams)[:, :2]
         trusted = self._fits_well(matched, len(beams))
-        if trusted or len(points) == 0:
-            return relative(pred, best), trusted
-        self.stats.coarse_searches += 1
         turn = abs(motion[0]) + abs(motion[2])
         angular = m.coarse_angular + 0.5 * turn
+        if trusted or len(points) == 0:
+            return self._kept(relative(pred, best), trusted, angular), trusted
+        self.stats.coarse_searches += 1
         linear_cells = m.coarse_linear_cells + int(0.25 * abs(motion[1]) / res)
         half = int(np.ceil(m.coarse_range / res)) + linear_cells + m.coarse_reach_cells
         cx, cy = np.floor((pred[:2] - maps.origin) / res).astype(int)
@@ -283,7 +283,15 @@ class RBPFSlam:
                                             m.wide_iterations)
         if ll > best_ll and self._fits_well(fitting, len(beams)):
             return relative(pred, np.array([x, y, th])), True
-        return relative(pred, best), False
+        return self._kept(relative(pred, best), False, angular), False
+
+    @staticmethod
+    def _kept(error: np.ndarray, trusted: bool, angular: float) -> np.ndarray:
+        """The odometry's ``error`` as applied to every particle: a trusted one whole; one from a
+        match that does not fit well only if it turns the robot within the coarse search's
+        ``angular`` window. A poor match that turned the leading particle further (onto the wrong
+        structure, where nothing fits) would otherwise turn every particle with it."""
+        return error if trusted or abs(error[2]) <= angular else np.zeros(3)
 
     def _fits_well(self, matched: int, beams: int) -> bool:
         """Whether a match of the leading particle is good enough to measure the odometry's error."""
