@@ -57,6 +57,8 @@ class SensorModel:
 
     def reach(self, scan: Scan) -> float:
         """How far ``scan``'s echoes are trusted (see the class)."""
+        if self.sparse_echoes <= 0:
+            return self.usable_range
         r = scan.ranges[scan.valid]
         near = np.count_nonzero(r <= self.usable_range)
         if near >= self.sparse_echoes or 2 * near >= len(r):
