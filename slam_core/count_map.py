@@ -63,7 +63,7 @@ def _count_beams(counts, touched, ix0, iy0, inv, poses, angles, ranges, offsets,
             for k in range(n):
                 cx, cy = buf[k, 0], buf[k, 1]
                 if (cx < 0 or cy < 0 or cx >= nx or cy >= ny or cleared <= k < n - 1
-                        or gap_lo <= k < gap_hi):
+                        or (gap_lo < gap_hi and gap_lo <= k < gap_hi)):
                     continue
                 if counts[cy, cx, OCC] == 0 and counts[cy, cx, FREE] == 0:
                     touched[m] = cy * nx + cx

@@ -54,7 +54,7 @@ def _count_band(occupied, free, row0, col0, ix0, iy0, nx, ny, inv, poses, angles
             for k in range(n):
                 cx, cy = buf[k, 0], buf[k, 1]
                 if (cx < 0 or cx >= nx or cy < low or cy > high or cleared <= k < n - 1
-                        or gap_lo <= k < gap_hi):
+                        or (gap_lo < gap_hi and gap_lo <= k < gap_hi)):
                     continue
                 if hit and k == n - 1:
                     occupied[cy - first, cx + ix0 - col0] += 1

@@ -188,7 +188,8 @@ def integrate_scan_dense(logodds, origin_x, origin_y, resolution, pose, angles, 
         for k in range(n):
             cx = buf[k, 0]
             cy = buf[k, 1]
-            if cx < 0 or cy < 0 or cx >= nx or cy >= ny or cleared <= k < n - 1 or gap_lo <= k < gap_hi:
+            if (cx < 0 or cy < 0 or cx >= nx or cy >= ny or cleared <= k < n - 1
+                    or (gap_lo < gap_hi and gap_lo <= k < gap_hi)):
                 continue
             delta = l_occ if (hit and k == n - 1) else l_free
             v = logodds[cy, cx] + delta

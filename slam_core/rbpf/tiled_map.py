@@ -154,7 +154,7 @@ def _integrate_map(p, tables, refs, lo, hit_of, hit_blocks, stack, bottom, top, 
             iy = buf[k, 1]
             ty = iy >> TILE_BITS
             tx = ix >> TILE_BITS
-            if ix < 0 or iy < 0 or ty >= n_ty or tx >= n_tx or gap_lo <= k < gap_hi:
+            if ix < 0 or iy < 0 or ty >= n_ty or tx >= n_tx or (gap_lo < gap_hi and gap_lo <= k < gap_hi):
                 continue
             cy = iy & (TILE - 1)
             cx = ix & (TILE - 1)
