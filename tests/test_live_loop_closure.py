@@ -33,8 +33,9 @@ from tests.live_server import connect_stream, launch_replay
 
 TOKEN = "loop-closure-test-token-0123-abcdefgh"
 #: The map is looked at again these many seconds after a closure (the map pump runs at >= 1 Hz; on a
-#: busy machine the corrected map can take longer to be written and streamed) ...
-SETTLE_S = (1.5, 3.0)
+#: busy machine the corrected map can take longer to be written and streamed: a fresh CI beside
+#: heavy tests saw a best gain of 0.012 with looks at 1.5 and 3 s only) ...
+SETTLE_S = (1.5, 3.0, 6.0)
 #: ... and compared with the map as it was this long before the closure's message arrived: the
 #: corrected map travels apart from the message (shared memory, then the map pump) and can arrive first.
 LOOKBACK_S = 1.0
