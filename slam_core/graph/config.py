@@ -75,8 +75,8 @@ class LoopClosureConfig:
     wide_every: int = 5
     window_sigmas: float = 2.0
     heading_window_sigmas: float = 4.0
-    max_linear_window: float = 60.0
-    max_angular_window: float = 0.8
+    max_linear_window: float = 20.0
+    max_angular_window: float = 0.5
     wide_candidates: int = 3
     wide_others: int = 2
     wide_min_score: float = 0.5
