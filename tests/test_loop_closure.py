@@ -2,15 +2,26 @@
 on a drifted trajectory against ground truth, scans between updates re-matched."""
 
 import numpy as np
+import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from slam_core.geometry import relative, wrap_angle
 from slam_core.graph import pose_graph
 from slam_core.graph.config import LoopClosureConfig
-from slam_core.graph.loop_closure import _chain_information, close_loops, robust_solve, scan_poses
+from slam_core.graph.loop_closure import (
+    Submap,
+    _chain_information,
+    _within_reach,
+    close_loops,
+    robust_solve,
+    scan_poses,
+)
 from slam_core.graph.wide_search import field_pyramid, wide_search
+from slam_core.occupancy_grid import SensorModel
+from slam_core.rbpf.config import MatcherParams
 from slam_core.rbpf.correlative import bounded_search, max_pool, search
+from slam_core.rbpf.scan_matcher import beam_rows
 from tests.large_world import drifted
 from tests.synthetic_room import room_scan
 
@@ -148,6 +159,31 @@ def test_wide_branch_and_bound_finds_the_exhaustive_searchs_optimum(seed, levels
     # a floor above the optimum finds nothing
     assert wide_search(pyramid, 0.05, 0.0, 0.0, px, py, pth, points, 0.06, 0.02, cells,
                        exhaustive[3] + 1e-3)[3] == -1.0
+
+
+@settings(max_examples=20, deadline=None)
+@given(st.integers(0, 10_000))
+def test_a_wide_window_searched_only_where_points_reach_the_submap_finds_the_same_best_score(seed):
+    """Against the whole window: the part left out is where no point can land on the field."""
+    rng = np.random.default_rng(seed)
+    truth = two_laps(40)
+    matcher = MatcherParams()
+    sub = Submap(np.arange(10), truth, [room_scan(p, 360) for p in truth], 0.05, SensorModel(), matcher,
+                 matcher.packed(), 3.0)
+    query = truth[25] + np.append(rng.uniform(-0.3, 0.3, 2), rng.uniform(-0.1, 0.1))
+    points = beam_rows(room_scan(truth[25], 360), matcher.coarse_range, matcher.coarse_beams)[:, :2]
+    linear = float(rng.uniform(20.0, 30.0))
+    start = query + np.append(rng.uniform(-0.8 * linear, 0.8 * linear, 2), 0.0)  # the truth in the window
+    clipped = _within_reach(sub, start, linear, matcher.coarse_range)
+    assert clipped is not None and clipped[1] < linear
+    whole = wide_search(sub.pyramid(), 0.05, *sub.field_corner, *start, points, 0.1, 0.01,
+                        int(np.ceil(linear / 0.05)), 0.0)
+    part = wide_search(sub.pyramid(), 0.05, *sub.field_corner, *clipped[0], points, 0.1, 0.01,
+                       int(np.ceil(clipped[1] / 0.05)), 0.0)
+    assert whole[3] > 0.25 * len(points)  # it finds the room
+    assert part[3] == pytest.approx(whole[3], rel=1e-6)
+    far = start + np.array([60.0, 0.0, 0.0])  # a window wholly beyond the field's reach
+    assert _within_reach(sub, far, 10.0, matcher.coarse_range) is None
 
 
 def test_field_pyramid_is_the_maximum_over_each_block():

@@ -81,17 +81,19 @@ def thinned(scan: Scan, every: int = 15) -> Scan:
 def test_a_loop_after_a_stretch_of_sparse_scans_is_searched_as_wide_as_its_heading_drift(ring):
     """Where the scans hold few echoes, the filter's heading drifts more than the chain's model for
     full scans allows, and the wide search's window widens there. The same path behind full scans
-    (the control) is beyond the window and stays open."""
+    (the control) is beyond the window and stays open. The return is 18-28 m off, where the
+    submaps nearest the drifted estimate are not those it returns to: they are found because the
+    search tries the window's other submaps in turn (without, it stays open)."""
     truth, scans = ring
     lo, hi = 134, 250  # a 58 m stretch, from the first corner on
     steps = relative(truth[:-1], truth[1:])
-    steps[lo:hi, 2] += 0.002  # 13 deg of heading drift over the stretch
+    steps[lo:hi, 2] += 0.0036  # 24 deg of heading drift over the stretch
     bent = [truth[0]]
     for step in steps:
         bent.append(compose(bent[-1], step))
     bent = np.array(bent)
     lap = len(truth) - 50
-    assert distance(truth, bent)[lap:].min() > 10.0
+    assert distance(truth, bent)[lap:].min() > 15.0
     sparse = [thinned(s) if lo < k <= hi else s for k, s in enumerate(scans)]  # 24 echoes each
     result, _ = close_loops(bent, sparse, CONFIG)
     assert result.loop_edges > 10, result.stats()

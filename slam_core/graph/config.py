@@ -32,9 +32,14 @@ class LoopClosureConfig:
     ``window_sigmas`` standard errors of the drift the chain's own noise (above) lets
     accumulate between them (the heading's random walk swinging the position, its noise
     widened where a scan held fewer echoes than the matcher uses; in position, only the
-    drift since a loop edge found that ties the two stretches together), up to
-    ``max_linear_window`` / ``max_angular_window``: the ``wide_candidates`` nearest
-    whose anchor lies within ``search_radius`` plus that window. The search keeps only
+    drift since a loop edge found that ties the two stretches together), in heading of
+    ``heading_window_sigmas`` (a filter's heading also errs systematically, where an odometry
+    bias is left over across open ground, which a random walk does not describe), up to
+    ``max_linear_window`` / ``max_angular_window`` (only the part of the window from which
+    the query's points can land on the submap is searched): of the submaps whose anchor lies
+    within ``search_radius`` plus that window, the ``wide_candidates`` likeliest and
+    ``wide_others`` of the rest in turn (:func:`slam_core.graph.loop_closure._wide_candidates`).
+    The search keeps only
     poses where the correlative score reaches ``wide_min_score`` of its maximum, and
     the match must explain ``wide_accept_fit`` of the beams; one that explains at least
     ``wide_confirm_fit`` is kept too if ``wide_confirmations`` of the four updates around
@@ -69,9 +74,11 @@ class LoopClosureConfig:
     refine_beams: int = 720
     wide_every: int = 5
     window_sigmas: float = 2.0
+    heading_window_sigmas: float = 4.0
     max_linear_window: float = 20.0
     max_angular_window: float = 0.5
     wide_candidates: int = 3
+    wide_others: int = 2
     wide_min_score: float = 0.5
     wide_accept_fit: float = 0.8
     wide_confirm_fit: float = 0.7

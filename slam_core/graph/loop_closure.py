@@ -214,12 +214,17 @@ def _match(sub: Submap, start: np.ndarray, beams: np.ndarray, points: np.ndarray
     and ``+-angular`` rad of ``start``; ``None`` when the correlative search's best pose lies
     on its window's rim, or (a window wider than the narrow one) no pose scores well."""
     res = sub.maps.resolution
-    linear_cells = int(np.ceil(linear / res))
     if linear <= config.linear_window:
+        linear_cells = int(np.ceil(linear / res))
         sx, sy, sth, _ = bounded_search(sub.field, sub.pooled, BLOCK_CELLS, res, sub.field_corner[0],
                                         sub.field_corner[1], start[0], start[1], start[2], points,
                                         angular, matcher.coarse_angular_step, linear_cells)
     else:
+        start = _within_reach(sub, start, linear, matcher.coarse_range)
+        if start is None:
+            return None
+        start, linear = start
+        linear_cells = int(np.ceil(linear / res))
         sx, sy, sth, score = wide_search(sub.pyramid(), res, sub.field_corner[0], sub.field_corner[1],
                                          start[0], start[1], start[2], points, angular,
                                          matcher.coarse_angular_step, linear_cells,
@@ -234,6 +239,22 @@ def _match(sub: Submap, start: np.ndarray, beams: np.ndarray, points: np.ndarray
     x, y, th, info, _, _, fitting = match(*fine, sx, sy, sth, beams, params, matcher.iterations,
                                           matcher.wide_iterations)
     return np.array([x, y, th]), info, fitting / max(len(beams), 1)
+
+
+def _within_reach(sub: Submap, start: np.ndarray, linear: float, reach: float
+                  ) -> tuple[np.ndarray, float] | None:
+    """The square part of the window ``+-linear`` around ``start`` (submap frame) from which points
+    at most ``reach`` from the pose can land on the submap's field, as ``(centre with start's
+    heading, half width)``; ``None`` when there is none. Elsewhere every pose scores 0, so a
+    window metres wider than the field loses nothing by being searched there alone."""
+    size = sub.field.shape[1] * sub.maps.resolution
+    lo = np.maximum(start[:2] - linear, sub.field_corner - reach)
+    hi = np.minimum(start[:2] + linear, sub.field_corner + size + reach)
+    if np.any(lo > hi):
+        return None
+    res = sub.maps.resolution
+    centre = start[:2] + np.round((0.5 * (lo + hi) - start[:2]) / res) * res  # on the window's own cells
+    return np.array([centre[0], centre[1], start[2]]), float(0.5 * np.max(hi - lo)) + res
 
 
 def close_loops(poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig | None = None,
@@ -564,18 +585,25 @@ def _candidates(q: int, estimate: np.ndarray, path: np.ndarray, submaps: Submaps
 
 def _wide_candidates(q: int, estimate: np.ndarray, path: np.ndarray, submaps: Submaps, drift: ChainDrift,
                      loops: np.ndarray, config: LoopClosureConfig) -> list[tuple[int, float, float]]:
-    """``(submap, linear, angular)``: the nearest submaps (at most ``wide_candidates``) passed
-    long before update ``q`` that the drift between them since the ``loops`` found (rows
-    ``(anchor, update)``) may have moved within ``search_radius`` of it, with the window that
-    drift asks for."""
+    """``(submap, linear, angular)``: submaps passed long before update ``q`` that the drift
+    between them since the ``loops`` found (rows ``(anchor, update)``) may have moved within
+    ``search_radius`` of it, with the window that drift asks for: the ``wide_candidates``
+    likeliest (where the drift's density is highest) and ``wide_others`` of the rest in turn,
+    the next few for each query, so that over a stretch of queries a window wider than the
+    submaps' spacing tries every submap in it, not only those the drifted estimate lies near."""
     old = np.flatnonzero(path[q] - path[submaps.ends] >= config.min_loop_path)
     if len(old) == 0:
         return []
     sxy = drift.since_loops(submaps.anchors[old], q, loops)
     _, sth = drift.sigmas(submaps.anchors[old], q)  # the chain's heading drift: loops close it less surely
     linear = np.clip(config.window_sigmas * sxy, config.linear_window, config.max_linear_window)
-    angular = np.clip(config.window_sigmas * sth, config.angular_window, config.max_angular_window)
+    angular = np.clip(config.heading_window_sigmas * sth, config.angular_window, config.max_angular_window)
     d = np.hypot(*(estimate[submaps.anchors[old], :2] - estimate[q, :2]).T)
     reachable = np.flatnonzero((d < config.search_radius + linear) & (linear > config.linear_window))
-    near = reachable[np.argsort(d[reachable])[:config.wide_candidates]]
+    sigma = np.maximum(sxy[reachable], 1e-9)
+    likeliest = reachable[np.argsort(2.0 * np.log(sigma) + 0.5 * (d[reachable] / sigma) ** 2)]
+    others = likeliest[config.wide_candidates:]
+    if len(others) > config.wide_others:  # more than a query's share: each takes the next few
+        others = np.roll(others, -((q // config.wide_every) * config.wide_others % len(others)))
+    near = np.concatenate([likeliest[:config.wide_candidates], others[:config.wide_others]])
     return [(int(old[k]), float(linear[k]), float(angular[k])) for k in near]
