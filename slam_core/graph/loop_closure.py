@@ -243,10 +243,11 @@ def _match(sub: Submap, start: np.ndarray, beams: np.ndarray, points: np.ndarray
 
 def _within_reach(sub: Submap, start: np.ndarray, linear: float, reach: float
                   ) -> tuple[np.ndarray, float] | None:
-    """The square part of the window ``+-linear`` around ``start`` (submap frame) from which points
-    at most ``reach`` from the pose can land on the submap's field, as ``(centre with start's
-    heading, half width)``; ``None`` when there is none. Elsewhere every pose scores 0, so a
-    window metres wider than the field loses nothing by being searched there alone."""
+    """A square on the window's cells holding the part of the window ``+-linear`` around ``start``
+    (submap frame) from which points at most ``reach`` from the pose can land on the submap's
+    field, as ``(centre with start's heading, half width)``; ``None`` when there is no such part.
+    Elsewhere every pose scores 0, so a window metres wider than the field loses nothing by
+    being searched there alone."""
     size = sub.field.shape[1] * sub.maps.resolution
     lo = np.maximum(start[:2] - linear, sub.field_corner - reach)
     hi = np.minimum(start[:2] + linear, sub.field_corner + size + reach)
