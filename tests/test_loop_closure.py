@@ -1,6 +1,8 @@
 """The loop-closing back end: branch and bound against exhaustive search, loops closed
 on a drifted trajectory against ground truth, scans between updates re-matched."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 from hypothesis import example, given, settings
@@ -100,6 +102,21 @@ def test_loops_close_on_a_drifted_trajectory():
     assert after.mean() < 0.03 and after.max() < 0.08, (after.mean(), after.max())
     assert np.degrees(after_th.max()) < 1.5
     assert after.mean() < 0.1 * before.mean()
+
+
+def test_an_edge_dropped_in_every_round_is_counted_once():
+    truth = two_laps()
+    bent = drifted(truth, turn_bias=0.002, scale=1.01)
+    rng = np.random.default_rng(0)
+    scans = [room_scan(p, 360, noise=0.01, rng=rng) for p in truth]
+    # every loop edge is an outlier: each round's searches find the same pairs again and drop them
+    strict = LoopClosureConfig(submap_updates=10, min_loop_path=4.0, outlier_chi2=0.0, rounds=1)
+    once, _ = close_loops(bent, scans, strict)
+    twice, _ = close_loops(bent, scans, dataclasses.replace(strict, rounds=2))
+    assert once.loop_edges == twice.loop_edges == 0
+    assert once.rejected_edges > 20
+    assert twice.candidates_tried > once.candidates_tried  # the second round searched them again
+    assert twice.rejected_edges == once.rejected_edges
 
 
 def test_a_straight_trajectory_is_left_where_it_is():

@@ -111,7 +111,8 @@ class LoopMemory:
 @dataclass
 class LoopClosureResult:
     """The optimised poses of the updates and what the search did; ``loop_pairs`` are the
-    kept loop edges as ``(submap anchor, update)``."""
+    kept loop edges as ``(submap anchor, update)``; ``rejected_edges`` counts the pairs whose
+    edge was dropped (inconsistent or an outlier) and not found again and kept, each once."""
 
     poses: np.ndarray
     loop_edges: int = 0
@@ -289,6 +290,7 @@ def close_loops(poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig 
     first = 0  # the first update searched
     edges: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}  # (anchor, update): (z, info)
     tried_wide: set[tuple[int, int]] = set()
+    dropped: set[tuple[int, int]] = set()  # edges dropped (a later round's search may find one again)
     if memory is not None:
         first, edges, tried_wide = memory.reusable(poses, config.submap_updates)
         estimate = memory.warm_start(poses)
@@ -361,18 +363,18 @@ def close_loops(poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig 
     def drop_inconsistent() -> None:
         for key in inconsistent_edges(edges, poses, witnessed, config.consistency_tolerance):
             del edges[key]
-            result.rejected_edges += 1
+            dropped.add(key)
 
     settled: list[set] = []  # the edges of the last solve, if it dropped none
 
     def solve(estimate: np.ndarray):
         if settled and settled[0] == edges.keys():
             return estimate  # the same graph (it depends on nothing else): the same optimum, no drop
-        estimate, dropped = robust_solve(poses, chain, edges, config.outlier_chi2, start=estimate)
-        for key in dropped:
+        estimate, outliers = robust_solve(poses, chain, edges, config.outlier_chi2, start=estimate)
+        for key in outliers:
             del edges[key]
-        result.rejected_edges += len(dropped)
-        settled[:] = [] if dropped else [set(edges)]
+        dropped.update(outliers)
+        settled[:] = [] if outliers else [set(edges)]
         return estimate
 
     if edges:
@@ -397,6 +399,7 @@ def close_loops(poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig 
         estimate = search_and_solve(pairs, estimate)
     result.poses = mount.robot_poses(estimate)
     result.loop_edges = len(edges)
+    result.rejected_edges = len(dropped - edges.keys())
     result.loop_pairs = list(edges)
     result.memory = LoopMemory(poses.copy(), n // config.submap_updates, dict(edges), set(tried_wide),
                                estimate.copy())
