@@ -18,6 +18,7 @@ const COLORS = {
   place: "#be185d",
   preview: "#2563eb",
   previewPose: "#0f766e",
+  scaleBacking: "rgba(255, 255, 255, 0.8)",
 };
 
 export class Renderer {
@@ -313,6 +314,10 @@ export class Renderer {
     const px = metres * view.scale;
     const x = 12;
     const y = view.height - 14;
+    const label = metres >= 1 ? `${metres} m` : `${Math.round(metres * 100)} cm`;
+    ctx.font = "11px system-ui, sans-serif";
+    ctx.fillStyle = COLORS.scaleBacking; // legible over walls and the scan as over free space
+    ctx.fillRect(x - 5, y - 18, Math.max(px, ctx.measureText(label).width + 4) + 10, 23);
     ctx.strokeStyle = "#1f2937";
     ctx.fillStyle = "#1f2937";
     ctx.lineWidth = 2;
@@ -322,8 +327,7 @@ export class Renderer {
     ctx.lineTo(x + px, y);
     ctx.lineTo(x + px, y - 5);
     ctx.stroke();
-    ctx.font = "11px system-ui, sans-serif";
     ctx.textBaseline = "bottom";
-    ctx.fillText(metres >= 1 ? `${metres} m` : `${Math.round(metres * 100)} cm`, x + 4, y - 3);
+    ctx.fillText(label, x + 4, y - 3);
   }
 }

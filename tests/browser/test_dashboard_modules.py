@@ -392,3 +392,29 @@ def test_pointer_gestures_click_drag_pinch_and_wheel(modules):
     assert out["pinched"]["after"] == pytest.approx(out["before"])
     assert out["wheeled"]["scale"] > 100
     assert out["wheeled"]["at"] == pytest.approx(out["underCursor"])
+
+
+def test_the_scale_bar_reads_over_a_wall(modules):
+    """The scale bar's label sits on a light backing, so it can be read where the map under it
+    is a wall (dark cells) as well as where it is free space."""
+    out = run(modules, """
+        const { State } = await import('./state.js');
+        const { Renderer } = await import('./renderer.js');
+        const canvas = document.createElement('canvas');
+        canvas.width = 300; canvas.height = 100;
+        const r = new Renderer(canvas, new State());
+        r.view.resize(300, 100); r.view.scale = 100;
+        const ctx = canvas.getContext('2d');
+        ctx.fillStyle = '#111827'; ctx.fillRect(0, 0, 300, 100);  // a wall under the whole bar
+        r.drawScaleBar();
+        const y = 100 - 14;
+        const box = ctx.getImageData(12, y - 16, 60, 12).data;  // the label's row above the bar
+        let light = 0, dark = 0;
+        for (let k = 0; k < box.length; k += 4) {
+            const v = (box[k] + box[k + 1] + box[k + 2]) / 3;
+            if (v > 200) light++; else if (v < 100) dark++;
+        }
+        return { light, dark, pixels: box.length / 4 };
+    """)
+    assert out["light"] > 0.5 * out["pixels"], out  # a backing, not the wall
+    assert out["dark"] > 5, out  # the label's strokes on it
