@@ -82,3 +82,25 @@ def test_a_filter_step_that_slid_between_loop_edges_is_put_right_with_the_odomet
     assert step_error(trusted.poses)[k] > 0.3 and apart(trusted.poses) > 0.2
     assert step_error(witnessed.poses)[k] < 0.05
     assert apart(witnessed.poses) < 0.05
+
+
+def test_a_filter_step_that_jumped_beyond_the_narrow_window_is_searched_as_wide_as_it_was_loosened():
+    """Near the end of the retraced lap the filter's step jumps 0.9 m along the corridor (the
+    filter closing its own loop onto a map that had drifted), beyond the narrow search's window.
+    The odometry read the step right, so the chain's step is loosened; the loop search must then
+    look as far as that step's uncertainty, or nothing after the jump is tied to the first lap
+    (the chain's own drift over the 5 m left is too small to widen the search)."""
+    truth = ring_tour()
+    scans = scans_along(truth, ring_world())
+    lap = len(truth) - 50
+    k = lap + 40
+    steps = relative(truth[:-1], truth[1:])
+    steps[k, 0] += 0.9
+    filtered = chained(truth[0], steps)
+    rng = np.random.default_rng(1)
+    odometry = chained(truth[0], relative(truth[:-1], truth[1:]) + rng.normal(0, 0.01, (len(truth) - 1, 3))
+                       * np.array([1.0, 1.0, 0.2]))
+    result, _ = close_loops(filtered, scans, CONFIG, odometry=odometry)
+    after = np.hypot(*(result.poses[k + 1:, :2] - truth[k + 1:, :2]).T)
+    assert np.hypot(*(filtered[k + 1:, :2] - truth[k + 1:, :2]).T).min() > 0.85
+    assert after.max() < 0.1, after

@@ -32,7 +32,8 @@ class LoopClosureConfig:
     ``window_sigmas`` standard errors of the drift the chain's own noise (above) lets
     accumulate between them (the heading's random walk swinging the position, its noise
     widened where a scan held fewer echoes than the matcher uses; in position, only the
-    drift since a loop edge found that ties the two stretches together), in heading of
+    drift since a loop edge found that ties the two stretches together, and each step's
+    noise widened as the odometry witness loosens it, below), in heading of
     ``heading_window_sigmas`` (a filter's heading also errs systematically, where an odometry
     bias is left over across open ground, which a random walk does not describe), up to
     ``max_linear_window`` / ``max_angular_window`` (only the part of the window from which

@@ -285,7 +285,7 @@ def close_loops(poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig 
     loosen = None if odometry is None else step_disagreement(result.poses, odometry, config.witness_tolerance)
     witnessed = None if odometry is None else mount.laser_poses(np.asarray(odometry, dtype=float))
     chain = _chain_information(poses, config, loosen)
-    drift = ChainDrift(poses, path, config, sparse_step_scales(scans, reach, matcher))
+    drift = ChainDrift(poses, path, config, sparse_step_scales(scans, reach, matcher), loosen)
     estimate = poses.copy()
     first = 0  # the first update searched
     edges: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}  # (anchor, update): (z, info)
@@ -489,16 +489,18 @@ def _chain_sigmas(poses: np.ndarray, config: LoopClosureConfig,
 
 class ChainDrift:
     """How far the chain of filter steps alone may have drifted between two updates: its
-    steps' translation noise plus each step's heading noise (times its ``scales``, when given)
-    swung over the path after it; and how far at most once the loop edges found so far tie
-    parts of the chain together."""
+    steps' translation noise (widened by ``loosen`` as the solve's chain is,
+    :func:`_chain_information`) plus each step's heading noise (times its ``scales``, when
+    given) swung over the path after it; and how far at most once the loop edges found so far
+    tie parts of the chain together."""
 
     def __init__(self, poses: np.ndarray, path: np.ndarray, config: LoopClosureConfig,
-                 scales: np.ndarray | None = None):
+                 scales: np.ndarray | None = None, loosen: np.ndarray | None = None):
         sxy, sth = _chain_sigmas(poses, config, scales)
+        vxy = sxy ** 2 if loosen is None else sxy ** 2 + np.asarray(loosen) ** 2
         vth = sth ** 2
         at = path[:-1]  # where each step's heading error starts to swing the path
-        self._cum = [np.concatenate([[0.0], np.cumsum(v)]) for v in (sxy ** 2, vth, vth * at, vth * at ** 2)]
+        self._cum = [np.concatenate([[0.0], np.cumsum(v)]) for v in (vxy, vth, vth * at, vth * at ** 2)]
         self._path = path
         self._xy = poses[:, :2]
 
