@@ -473,10 +473,12 @@ def sparse_step_scales(scans: list[Scan], reach: float, matcher: MatcherParams) 
     return np.sqrt(full / np.clip(echoes, matcher.min_matched_beams, full))
 
 
-def _chain_sigmas(poses: np.ndarray, config: LoopClosureConfig,
-                  scales: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Standard errors (m, rad) of each filter step: a floor plus noise growing with its motion,
-    the heading's times the step's ``scales`` (:func:`sparse_step_scales`) when given."""
+def _chain_variances(poses: np.ndarray, config: LoopClosureConfig, scales: np.ndarray | None = None,
+                     loosen: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Position and heading variances (m^2, rad^2) of each filter step: the standard error is a
+    floor plus noise growing with its motion, the heading's times the step's ``scales``
+    (:func:`sparse_step_scales`) and the position's widened by ``loosen`` (metres, per step:
+    :mod:`odometry_witness <slam_core.graph.odometry_witness>`) when given."""
     rel = relative(poses[:-1], poses[1:])
     dist = np.hypot(rel[:, 0], rel[:, 1])
     sxy = config.chain_sigma_xy + config.chain_sigma_per_metre * dist
@@ -484,21 +486,20 @@ def _chain_sigmas(poses: np.ndarray, config: LoopClosureConfig,
            + config.chain_sigma_th_per_metre * dist)
     if scales is not None:
         sth = sth * scales
-    return sxy, sth
+    vxy = sxy ** 2 if loosen is None else sxy ** 2 + np.asarray(loosen) ** 2
+    return vxy, sth ** 2
 
 
 class ChainDrift:
     """How far the chain of filter steps alone may have drifted between two updates: its
-    steps' translation noise (widened by ``loosen`` as the solve's chain is,
-    :func:`_chain_information`) plus each step's heading noise (times its ``scales``, when
-    given) swung over the path after it; and how far at most once the loop edges found so far
-    tie parts of the chain together."""
+    steps' translation noise (widened by ``loosen``, as the solve's chain is) plus each step's
+    heading noise (times its ``scales``, when given) swung over the path after it
+    (:func:`_chain_variances`); and how far at most once the loop edges found so far tie parts
+    of the chain together."""
 
     def __init__(self, poses: np.ndarray, path: np.ndarray, config: LoopClosureConfig,
                  scales: np.ndarray | None = None, loosen: np.ndarray | None = None):
-        sxy, sth = _chain_sigmas(poses, config, scales)
-        vxy = sxy ** 2 if loosen is None else sxy ** 2 + np.asarray(loosen) ** 2
-        vth = sth ** 2
+        vxy, vth = _chain_variances(poses, config, scales, loosen)
         at = path[:-1]  # where each step's heading error starts to swing the path
         self._cum = [np.concatenate([[0.0], np.cumsum(v)]) for v in (vxy, vth, vth * at, vth * at ** 2)]
         self._path = path
@@ -540,13 +541,12 @@ class ChainDrift:
 
 def _chain_information(poses: np.ndarray, config: LoopClosureConfig,
                        loosen: np.ndarray | None = None) -> np.ndarray:
-    """Information of each filter step (:func:`_chain_sigmas`), its position's standard error
+    """Information of each filter step (:func:`_chain_variances`), its position's standard error
     widened by ``loosen`` (metres, per step) if given."""
-    sxy, sth = _chain_sigmas(poses, config)
-    vxy = sxy ** 2 if loosen is None else sxy ** 2 + np.asarray(loosen) ** 2
-    info = np.zeros((len(sxy), 3, 3))
+    vxy, vth = _chain_variances(poses, config, loosen=loosen)
+    info = np.zeros((len(vxy), 3, 3))
     info[:, 0, 0] = info[:, 1, 1] = 1.0 / vxy
-    info[:, 2, 2] = 1.0 / sth ** 2
+    info[:, 2, 2] = 1.0 / vth
     return info
 
 
