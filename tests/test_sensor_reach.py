@@ -90,8 +90,10 @@ def test_sparse_random_scans_match_the_reference_exactly(seed):
 def test_the_filter_crossing_an_open_square_holds_on_its_far_walls():
     """A 60 m square with pillars along its walls, crossed 20-40 m from them: fewer than 20 echoes
     within 20 m. The odometry's heading creeps by 1.1 deg a metre. Trusting the far echoes of
-    such scans (out to where each has the matcher's 180), the filter tracks the robot to a few
-    centimetres; capped at 20 m it has nothing to match and follows the odometry metres off."""
+    such scans (out to where each has the matcher's 180), the filter updating at every scan (0.4 m
+    apart) tracks the robot to a few centimetres; capped at 20 m it has nothing to match and
+    follows the odometry metres off. (At the default thresholds, an update every 0.8 m here, the
+    heading drifts 0.015 rad between updates, 0.3-0.6 m at these walls: 0.29 m off at the end.)"""
     pillars = [s for k in range(-25, 30, 10) for s in box(k, -29.0, 1.0, 1.0) + box(29.0, k, 1.0, 1.0)]
     segments = np.array(rectangle(-30.0, -30.0, 30.0, 30.0) + pillars + box(-29.0, 5.0, 1.0, 3.0), float)
     leg = np.arange(0.0, 20.0, 0.4)
@@ -105,11 +107,14 @@ def test_the_filter_crossing_an_open_square_holds_on_its_far_walls():
     assert all(np.count_nonzero(s.ranges <= 20.0) < 20 for s in scans)
 
     def final_error(model):
-        slam = RBPFSlam(RBPFConfig(particles=8, sensor=model), seed=0, initial_pose=odometry[0])
-        for odom, scan in zip(odometry, scans, strict=True):
-            slam.step(odom, scan)
+        config = RBPFConfig(particles=8, sensor=model, linear_update=0.4, angular_update=0.1)
+        slam = RBPFSlam(config, seed=0, initial_pose=odometry[0])
+        last = 0
+        for k, (odom, scan) in enumerate(zip(odometry, scans, strict=True)):
+            if slam.step(odom, scan):
+                last = k
         _, poses = slam.best_path()
-        return np.hypot(*(poses[-1, :2] - truth[-1, :2]))
+        return np.hypot(*(poses[-1, :2] - truth[last, :2]))
 
     assert final_error(SensorModel(sparse_echoes=180)) < 0.15
     assert final_error(SensorModel()) > 1.0  # off by default

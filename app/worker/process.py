@@ -229,8 +229,10 @@ class Worker:
         if with_map:
             errors = self.odometry_errors  # the last estimator's, until this one has learned as much
             calibration = odometry_calibration(self.estimator)
-            if calibration is not None and calibration.calibrated():
-                errors = calibration.measured()
+            if calibration is not None:
+                measured = calibration.measured()
+                if len(measured.rows) and (errors is None or len(measured.rows) >= len(errors.rows)):
+                    errors = measured
             session = self.loops.session(self.estimator, self.pose)
             if self.loops.solved is not None:
                 grid, hits = self.loops.published_grid, self.loops.published_hits(session)

@@ -99,8 +99,9 @@ class MatcherParams:
 @dataclass(frozen=True)
 class RBPFConfig:
     """The whole filter. ``linear_update`` / ``angular_update``: travel since the last
-    update that triggers the next one (GMapping uses 1.0 m / 0.5 rad; updating
-    more often costs time but keeps odometry's share of every pose small);
+    update that triggers the next one (GMapping uses 1.0 m / 0.5 rad); between them a scan
+    that fits the leading map much worse from the odometry's prediction forces an update
+    (``MatcherParams.mismatch_drop``), so updating more often costs time and buys little;
     ``resample_threshold``: resample when ``N_eff < resample_threshold * N``;
     ``calibration_*``: the odometry's errors measured by the last ``calibration_window`` good
     matches calibrate the draws of particles that do not match, once there are
@@ -111,8 +112,8 @@ class RBPFConfig:
 
     particles: int = 30
     resolution: float = 0.05
-    linear_update: float = 0.2
-    angular_update: float = 0.1
+    linear_update: float = 0.5
+    angular_update: float = 0.25
     resample_threshold: float = 0.5
     calibration_window: int = 200
     calibration_min_samples: int = 20
