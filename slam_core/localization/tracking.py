@@ -12,8 +12,11 @@ does the former on every scan:
    ahead along a corridor where the scan cannot pull it back). An odometry whose position
    freezes (a *stall*: steps shorter than ``stall_xy``) may not have seen the robot stop.
    While its heading is frozen too (turning less than ``stall_theta``), right after a step of
-   at least ``stall_min_step`` (no robot stops from speed within one scan) the prediction goes
-   on with that step, for up to ``stall_travel`` metres. The step that ends a stall *catches
+   at least ``stall_min_step`` the prediction goes on with that step, for up to ``stall_travel``
+   metres; when the odometry reports nothing at all, a short step right after one at cruising
+   speed is a stale reading, passed over. A robot may also stop within one scan (Intel's does):
+   a bridged scan is matched from where the odometry puts it too, and the better fit wins (the
+   odometry's on a tie). The step that ends a stall *catches
    up* when it is longer than ``catch_up`` times the odometry's mean step (its running mean
    over the steps that moved, rate ``speed_rate``; no robot doubles its speed within a scan):
    it holds all the motion since the stall began, which the matches have partly followed, so
@@ -88,7 +91,9 @@ class TrackingConfig:
     #: frozen when turning less than ``stall_theta`` (rad); bridged right after a step of
     #: ``stall_min_step`` (m) for up to ``stall_travel`` (m); the prior widens for the first
     #: ``stall_scans`` scans; the odometry's mean step is a running mean (rate ``speed_rate``), and
-    #: a step ``catch_up`` times longer ends a stall by catching up.
+    #: a step ``catch_up`` times longer ends a stall by catching up; a step at least ``cruise`` times
+    #: it is at cruising speed; a step moving less than ``still_xy`` (m) and turning less than
+    #: ``still_theta`` (rad) reports nothing.
     stall_xy: float = 0.01
     stall_theta: float = 0.1
     stall_min_step: float = 0.05
@@ -96,6 +101,9 @@ class TrackingConfig:
     stall_scans: int = 10
     speed_rate: float = 0.2
     catch_up: float = 2.0
+    cruise: float = 0.75
+    still_xy: float = 0.001
+    still_theta: float = 0.002
     #: Rejected scans in a row after which the track is lost.
     patience: int = 5
     #: Occlusion: the least fit, the largest fraction of beams seen through a wall, and the odometry
@@ -165,6 +173,8 @@ class PoseTracker:
         self.occluded = False
         self._odom: np.ndarray | None = None
         self._last_step: np.ndarray | None = None  # the last odometry step that moved (robot frame)
+        self._cruising = False  # the last step that moved was at least cruise x the mean step
+        self._before_stale = None  # the step before that one, if that one was short after cruising
         self._speed = np.zeros(2)  # the odometry's mean step (m, rad) while it moves
         self._stalled = 0  # steps the odometry's position has been frozen for
         self._frozen = False  # the last step was frozen in heading too
@@ -175,6 +185,7 @@ class PoseTracker:
                                             self.config.calibration_min, 1.0)
         self._anchor: np.ndarray | None = None  # the pose of the last accepted match
         self._raw_since = np.zeros(3)  # and the odometry's motion since, uncorrected (stalls bridged)
+        self._unbridged = None  # in a bridged stall: the pose and raw motion as if the robot stopped
         self._unconfirmed_travel = 0.0  # odometry travel since an unconfirmed start
         self._unconfirmed_matches = 0  # and accepted matches
         self._confirm_fit = self.config.start_fit  # the usual fit an unconfirmed track must keep
@@ -197,16 +208,19 @@ class PoseTracker:
             caught_up = self._stall_start is not None and self._caught_up(raw)
             stalled = self._stall_step(raw)
             if self.pose is not None:
-                previous = self.pose
+                previous, self._unbridged = self.pose, None
                 if caught_up and not stalled:
                     start, start_odom = self._stall_start
                     moved = self.corrected(relative(start_odom, odom))
                     self.pose = compose(start, moved)
                     self._anchor = None  # the odometry's motion since the last match is not known
                 else:
-                    raw = self._bridge(raw)
-                    self._raw_since = compose(self._raw_since, raw)
-                    moved = self.corrected(raw)
+                    bridged = self._bridge(raw)
+                    if bridged is not raw:
+                        still = compose(self.pose, self.corrected(raw))
+                        self._unbridged = still, compose(self._raw_since, raw)
+                    self._raw_since = compose(self._raw_since, bridged)
+                    moved = self.corrected(bridged)
                     self.pose = compose(self.pose, moved)
                 self._moved += (np.hypot(moved[0], moved[1]), abs(moved[2]))
                 if not self.confirmed:
@@ -251,14 +265,24 @@ class PoseTracker:
         return float(np.hypot(step[0], step[1])) > self.config.catch_up * self._speed[0]
 
     def _bridge(self, step: np.ndarray) -> np.ndarray:
-        """The odometry's step, or in a stall (heading frozen too) right after moving, the step before it."""
+        """The odometry's step, or in a stall (heading frozen too) right after moving, the step before
+        it. The reading just before a freeze is often stale too: while the odometry reports nothing
+        at all (moving less than ``still_xy`` and turning less than ``still_theta``), a step shorter
+        than ``stall_min_step`` right after one at cruising speed is passed over (a robot that stops
+        slows down first, or creeps)."""
         cfg = self.config
-        last = self._last_step
+        moved = float(np.hypot(step[0], step[1]))
+        silent = moved < cfg.still_xy and abs(step[2]) < cfg.still_theta
+        if not silent and moved < cfg.stall_xy:
+            self._before_stale = None
+        last = self._before_stale if silent and self._before_stale is not None else self._last_step
         speed = 0.0 if last is None else float(np.hypot(last[0], last[1]))
         if self._frozen and speed >= cfg.stall_min_step and self._stalled * speed <= cfg.stall_travel:
             return np.array([last[0], last[1], step[2]])
-        if np.hypot(step[0], step[1]) >= cfg.stall_xy:
+        if moved >= cfg.stall_xy:
+            self._before_stale = self._last_step if moved < cfg.stall_min_step and self._cruising else None
             self._last_step = step
+            self._cruising = moved >= max(cfg.stall_min_step, cfg.cruise * self._speed[0])
         return step
 
     def correct(self, points: np.ndarray, laser_xy=(0.0, 0.0)) -> MatchResult | None:
@@ -273,6 +297,12 @@ class PoseTracker:
             cfg.prior_xy + cfg.prior_xy_per_m * dist + cfg.prior_xy_per_rad * turn + stall_xy,
             cfg.prior_theta + cfg.prior_theta_per_m * dist + cfg.prior_theta_per_rad * turn + stall_theta)
         result = self.matcher.match(self.pose, points, prior)
+        if self._unbridged is not None:  # a bridged stall: the robot may have stopped after all
+            still_pose, still_since = self._unbridged
+            still = self.matcher.match(still_pose, points, prior)
+            if still.fit >= result.fit:
+                result, self.pose, self._raw_since = still, still_pose, still_since
+            self._unbridged = None
         usual = result.fit if self.usual_fit is None else self.usual_fit
         needed = max(cfg.min_fit, cfg.keep_ratio * usual)
         if result.fit < max(needed, usual - cfg.search_on_drop):
@@ -350,6 +380,7 @@ class PoseTracker:
             start, start_odom = self._stall_start
             self._stall_start = (compose(result.pose, relative(self.pose, start)), start_odom)
         self.pose, self.fit, self.usual_fit, self.misses = result.pose, result.fit, usual, 0
+        self._unbridged = None
         self._anchor, self._raw_since = result.pose, np.zeros(3)
         self.occluded = False
         self._moved[:] = 0.0
@@ -361,6 +392,7 @@ class PoseTracker:
     def start(self, pose) -> None:
         """Track from ``pose`` as given (a known start)."""
         self.pose = np.array(pose, dtype=np.float64)
+        self._unbridged = None
         self.usual_fit = None
         self.misses = 0
         self.occluded = False
@@ -371,6 +403,7 @@ class PoseTracker:
 
     def lose(self) -> None:
         self.pose = None
+        self._unbridged = None
         self._anchor = None
         self._stall_start = None
         self.misses = 0
