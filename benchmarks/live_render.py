@@ -82,7 +82,7 @@ def render(out: Path, mode: str) -> None:
             traced += counts.update(laser, scans)
         gridded = time.process_time()
         if mode == "after":
-            grid = counts.grid(layout)
+            grid = counts.grid(layout.extent())
         hits = time.process_time()
         if mode == "before":
             hit_sums_on(grid, laser, scans, c.sensor)

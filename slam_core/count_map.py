@@ -255,9 +255,10 @@ class CountMap:
             counts[y:y + ny, x:x + nx] = self.counts
         self.corner, self.counts = new_lo, counts
 
-    def grid(self, layout: OccupancyGrid | None = None) -> OccupancyGrid:
-        """A fresh grid of the map, over its cells and (when given) ``layout``'s extent too."""
-        grid, cells = _grid_over(self.resolution, self.model, self.corner, self.counts.shape[:2], layout)
+    def grid(self, extent: tuple[float, float, float, float] | None = None) -> OccupancyGrid:
+        """A fresh grid of the map, over its cells and (when given) the box ``extent`` too
+        (``(xmin, ymin, xmax, ymax)``, a grid's :meth:`~slam_core.occupancy_grid.OccupancyGrid.extent`)."""
+        grid, cells = _grid_over(self.resolution, self.model, self.corner, self.counts.shape[:2], extent)
         if cells.size:
             m = self.model
             _log_odds(self.counts, cells, m.l_occ, m.l_free, m.l_min, m.l_max)
@@ -277,16 +278,16 @@ class CountMap:
 
 
 def _grid_over(resolution: float, model: SensorModel, corner: np.ndarray, shape: tuple[int, int],
-               layout: OccupancyGrid | None = None) -> tuple[OccupancyGrid, np.ndarray]:
+               extent: tuple[float, float, float, float] | None = None) -> tuple[OccupancyGrid, np.ndarray]:
     """A fresh grid over the ``shape`` (ny, nx) cells from the absolute cell ``corner`` and (when
-    given) ``layout``'s extent, and the view of its data on those cells."""
+    given) the box ``extent``, and the view of its data on those cells."""
     grid = OccupancyGrid(resolution, model=model)
     ny, nx = shape
     centres = []  # (xmin, ymin, xmax, ymax) of the cell centres to cover
     if nx and ny:
         centres.append(np.concatenate([corner + 0.5, corner + np.array([nx, ny]) - 0.5]) * resolution)
-    if layout is not None and layout.data.size:
-        centres.append(np.array(layout.extent()) + 0.5 * resolution * np.array([1, 1, -1, -1]))
+    if extent is not None:
+        centres.append(np.array(extent) + 0.5 * resolution * np.array([1, 1, -1, -1]))
     if centres:
         box = np.array(centres)
         grid.ensure_contains(*box[:, :2].min(axis=0), *box[:, 2:].max(axis=0))

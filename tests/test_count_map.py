@@ -130,13 +130,13 @@ def test_moves_within_the_tolerance_trace_nothing_and_keep_the_map_of_the_traced
     assert counts.update(turned, scans) == 0
 
 
-def test_the_grid_covers_a_layout_and_the_map_keeps_its_cells():
+def test_the_grid_covers_a_box_and_the_map_keeps_its_cells():
     poses, scans = updates(2, 8)
     counts = CountMap(RES, MODEL, SIZE)
     counts.update(poses, scans)
     alone = counts.grid()
     layout = OccupancyGrid(RES, origin=alone.origin - 200 * RES, shape=(10, 10))
-    wide = counts.grid(layout)
+    wide = counts.grid(layout.extent())
     assert wide.extent()[0] <= layout.extent()[0] and wide.extent()[2] >= alone.extent()[2]
     mine, theirs = same_cells(alone, wide)
     np.testing.assert_array_equal(mine, theirs)

@@ -32,7 +32,7 @@ def test_solves_without_moved_poses_trace_the_newest_submap_only_and_equal_a_ful
     last = results[-1]
     scratch = CountMap(slam.config.resolution, slam.config.sensor, size)
     scratch.update(slam.mount.laser_poses(last.poses), back_end.scans[:len(last.poses)])
-    full = scratch.grid(last.grid)
+    full = scratch.grid(last.grid.extent())
     assert full.shape == last.grid.shape and np.count_nonzero(full.data) > 1000
     np.testing.assert_array_equal(full.data, last.grid.data)
 

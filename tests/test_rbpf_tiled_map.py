@@ -37,11 +37,13 @@ def dense_equivalent(maps: TiledMaps, index: int, scans_and_poses) -> None:
     a, b, outside = aligned(grid, maps.to_grid(index))
     np.testing.assert_allclose(a, b, atol=1e-5)
     assert outside == (0, 0)
+    np.testing.assert_allclose(maps.extent(index), maps.to_grid(index).extent(), atol=1e-9)
 
 
 def test_tiled_integration_equals_the_dense_grid():
     rng = np.random.default_rng(3)
     maps = TiledMaps(3, 0.05, capacity=8)  # the pools grow many times
+    assert maps.extent(0) is None
     history = {i: [] for i in range(3)}
     for _ in range(5):
         poses = np.column_stack([rng.uniform(-3, 3, 3), rng.uniform(-3, 3, 3), rng.uniform(-3, 3, 3)])

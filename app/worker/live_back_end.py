@@ -114,8 +114,8 @@ class LiveBackEnd:
         poses, odometry = best.poses, self._odometry(best)
         if self.prior is not None:
             poses, scans = np.vstack([self.prior.poses, poses]), self.prior.scans + scans
-        layout = slam.occupancy_map()
-        self._thread = threading.Thread(target=self._solve, args=(poses, odometry, scans, layout),
+        extent = slam.map_extent()  # the filter's map: the solve's grid covers it too
+        self._thread = threading.Thread(target=self._solve, args=(poses, odometry, scans, extent),
                                         name="live-back-end", daemon=True)
         self._thread.start()
 
@@ -143,18 +143,18 @@ class LiveBackEnd:
         return odometry if self.prior is None else np.vstack([self.prior.odometry, odometry])
 
     def _solve(self, poses: np.ndarray, odometry: np.ndarray, scans: list[Scan],
-               layout: OccupancyGrid) -> None:
+               extent: tuple[float, float, float, float] | None) -> None:
         """One solve; one that raises leaves its reason for :meth:`failure` (and its traceback in
         the worker's log), and the next completed submap starts the next."""
         try:
-            self._solve_once(poses, odometry, scans, layout)
+            self._solve_once(poses, odometry, scans, extent)
         except Exception as exc:  # a thread's exception would only be printed
             traceback.print_exc()
             with self._lock:
                 self._failure = f"{type(exc).__name__}: {exc}"
 
     def _solve_once(self, poses: np.ndarray, odometry: np.ndarray, scans: list[Scan],
-                    layout: OccupancyGrid) -> None:
+                    extent: tuple[float, float, float, float] | None) -> None:
         started = time.perf_counter()
         c = self.config
         memory = self._memory if len(poses) < FULL_SOLVE_GROWTH * self._full_at else None
@@ -164,7 +164,7 @@ class LiveBackEnd:
         if memory is None:
             self._full_at = len(poses)
         traced = self._map.update(self.mount.laser_poses(closed.poses), scans)
-        grid = self._map.grid(layout)
+        grid = self._map.grid(extent)
         result = BackEndResult(closed.poses, poses, closed.loop_edges, grid, time.perf_counter() - started,
                                self._map.hit_sums(grid), traced)
         with self._lock:

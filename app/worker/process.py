@@ -537,8 +537,8 @@ class Worker:
             recording.phase = "failed"
             self._event("replay_finished", replay=self._replay_progress(), loop_edges=0, paths=[])
             return
+        self.loops.attach(self.estimator, seeded=True)  # the live back end's maps go before the final solve
         result = recording.finish(self.estimator)
-        self.loops.attach(self.estimator, seeded=True)
         self.pose = result.poses[-1].copy()
         self.estimator, self.mapping = FrozenMap(result.grid, self.pose), False
         self.map_written = False

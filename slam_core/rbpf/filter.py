@@ -137,6 +137,10 @@ class RBPFSlam:
         """The best particle's map."""
         return self.maps.to_grid(self.best_index())
 
+    def map_extent(self) -> tuple[float, float, float, float] | None:
+        """World bounds of :meth:`occupancy_map` (``None`` while it is empty), without making it."""
+        return self.maps.extent(self.best_index())
+
     # -- results --------------------------------------------------------------------
 
     def best_index(self) -> int:

@@ -569,6 +569,17 @@ class TiledMaps:
             grid.data, grid.origin = dense
         return grid
 
+    def extent(self, index: int) -> tuple[float, float, float, float] | None:
+        """World bounds ``(xmin, ymin, xmax, ymax)`` of :meth:`to_grid` ``(index)``, without making it
+        (``None`` for a map with no known tile)."""
+        used = np.argwhere(self.tables[index] >= 0)
+        if len(used) == 0:
+            return None
+        (ty0, tx0), (ty1, tx1) = used.min(axis=0), used.max(axis=0)
+        x0, y0 = self.origin + np.array([tx0, ty0]) * self.tile_size
+        x1, y1 = self.origin + np.array([tx1 + 1, ty1 + 1]) * self.tile_size
+        return float(x0), float(y0), float(x1), float(y1)
+
     def hit_sums(self, index: int) -> np.ndarray:
         """Map ``index``'s per-cell hit sums ``(ny, nx, 3)`` (``HIT_*``), aligned with :meth:`to_grid`."""
         dense = self._dense(index, self.tile_hit_sums)
