@@ -174,7 +174,8 @@ class PoseTracker:
         self._odom: np.ndarray | None = None
         self._last_step: np.ndarray | None = None  # the last odometry step that moved (robot frame)
         self._cruising = False  # the last step that moved was at least cruise x the mean step
-        self._before_stale = None  # the step before that one, if that one was short after cruising
+        # the step before the last one that moved, if that one was short right after cruising
+        self._before_stale: np.ndarray | None = None
         self._speed = np.zeros(2)  # the odometry's mean step (m, rad) while it moves
         self._stalled = 0  # steps the odometry's position has been frozen for
         self._frozen = False  # the last step was frozen in heading too
@@ -185,7 +186,8 @@ class PoseTracker:
                                             self.config.calibration_min, 1.0)
         self._anchor: np.ndarray | None = None  # the pose of the last accepted match
         self._raw_since = np.zeros(3)  # and the odometry's motion since, uncorrected (stalls bridged)
-        self._unbridged = None  # in a bridged stall: the pose and raw motion as if the robot stopped
+        # in a bridged stall: the pose and the raw motion since the anchor as if the robot stopped
+        self._unbridged: tuple[np.ndarray, np.ndarray] | None = None
         self._unconfirmed_travel = 0.0  # odometry travel since an unconfirmed start
         self._unconfirmed_matches = 0  # and accepted matches
         self._confirm_fit = self.config.start_fit  # the usual fit an unconfirmed track must keep

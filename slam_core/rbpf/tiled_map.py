@@ -572,8 +572,8 @@ class TiledMaps:
     def extent(self, index: int) -> tuple[float, float, float, float] | None:
         """World bounds ``(xmin, ymin, xmax, ymax)`` of :meth:`to_grid` ``(index)``, without making it
         (``None`` for a map with no known tile)."""
-        used = np.argwhere(self.tables[index] >= 0)
-        if len(used) == 0:
+        used = self._known_tiles(index)
+        if used is None:
             return None
         (ty0, tx0), (ty1, tx1) = used.min(axis=0), used.max(axis=0)
         x0, y0 = self.origin + np.array([tx0, ty0]) * self.tile_size
@@ -596,8 +596,8 @@ class TiledMaps:
         """``tile_values(t)`` of map ``index``'s tiles ``t`` as one array over its known tiles, and
         that array's origin."""
         table = self.tables[index]
-        used = np.argwhere(table >= 0)
-        if len(used) == 0:
+        used = self._known_tiles(index)
+        if used is None:
             return None
         (ty0, tx0), (ty1, tx1) = used.min(axis=0), used.max(axis=0)
         first = tile_values(table[tuple(used[0])])
@@ -606,6 +606,11 @@ class TiledMaps:
             y, x = (ty - ty0) * TILE, (tx - tx0) * TILE
             data[y:y + TILE, x:x + TILE] = tile_values(table[ty, tx])
         return data, self.origin + np.array([tx0, ty0]) * self.tile_size
+
+    def _known_tiles(self, index: int) -> np.ndarray | None:
+        """``(ty, tx)`` of map ``index``'s known tiles (``None`` if it has none)."""
+        used = np.argwhere(self.tables[index] >= 0)
+        return used if len(used) else None
 
     def seed_from_grid(self, grid: OccupancyGrid, hit_sums: np.ndarray | None = None) -> None:
         """Start every map as the same copy of ``grid`` (e.g. a checkpoint).
