@@ -125,7 +125,7 @@ class TreeMemory(threading.Thread):
 
     def __init__(self, pid: int) -> None:
         super().__init__(daemon=True)
-        self.pid, self.samples, self.stopped = pid, [0.0], threading.Event()
+        self.pid, self.samples, self.stopped = pid, [], threading.Event()
 
     def run(self) -> None:
         while not self.stopped.wait(1.0):
@@ -161,7 +161,7 @@ def replay(log: str, speed: str, seed: int, workdir: Path) -> dict:
     error = evaluate_files(out / "trajectory.txt", relations_of(log)).summary()
     return {"stats": stats, "error": error, "pose_hz": (pose_mean, pose_low), "map_hz": (map_mean, map_low),
             "trajectory": out / "trajectory.txt",
-            "pss_mb": (float(np.median(memory.samples)), max(memory.samples))}
+            "pss_mb": (float(np.median(memory.samples or [0.0])), max(memory.samples, default=0.0))}
 
 
 def offline(log: str, seed: int, workdir: Path) -> dict:
