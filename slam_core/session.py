@@ -37,6 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from slam_core.io.npz import write_npz
+from slam_core.map_bands import MapBands
 from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.rbpf import RBPFConfig
 from slam_core.rbpf.hit_render import SparseHits, sparse_hit_sums
@@ -74,11 +75,11 @@ class MappingSession:
             object.__setattr__(self, name, value)
 
     def grid(self) -> OccupancyGrid:
-        """The map, rendered from the updates' poses and scans."""
-        grid = OccupancyGrid(self.config.resolution, model=self.config.sensor)
-        for pose, scan in zip(self.laser_mount.laser_poses(self.poses), self.scans, strict=True):
-            grid.integrate(scan, pose)
-        return grid
+        """The map, rendered from the updates' poses and scans as ``homebot slam`` writes it and the
+        live back end publishes it after a solve: clamped after the sum (:mod:`slam_core.count_map`)."""
+        c = self.config
+        return MapBands(self.laser_mount.laser_poses(self.poses), self.scans, c.resolution, c.sensor,
+                        c.loop_closure.submap_updates).grid()
 
     def hit_sums(self, grid: OccupancyGrid) -> SparseHits:
         """The updates' per-cell hit sums on ``grid``'s cells (as :meth:`grid` renders them), for a

@@ -161,3 +161,15 @@ def test_loops_close_against_the_old_part_and_the_session_holds_both(continued):
     assert np.hypot(*(both.poses[:n, :2] - first.poses[:, :2]).T).max() < 0.1
     resumed = json.loads((root / "b" / "stats.json").read_text())["resumed"]
     assert resumed["updates"] == n and resumed["loop_edges_to_it"] > 0
+
+
+@pytest.mark.parametrize("part", ["a", "b"])
+def test_a_saved_session_renders_the_map_written_beside_it(continued, part):
+    """Resumed, a session goes on from the map the run wrote (the file a user looked at), cell by cell."""
+    _, root, _ = continued
+    written = load_map(root / part / "map.yaml")
+    grid = load_session(root / part / f"flat{SUFFIX}").grid()
+    assert grid.shape == written.shape and np.allclose(grid.origin, written.origin)
+    cells = written.trinary()
+    assert (cells == 100).sum() > 500 and (cells == 0).sum() > 10 * (cells == 100).sum()
+    np.testing.assert_array_equal(grid.trinary(), cells)
