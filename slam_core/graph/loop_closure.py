@@ -65,6 +65,12 @@ from slam_core.scan import Scan
 CACHED_SUBMAPS = 6
 #: Side (cells) of the blocks whose bounds the branch and bound search scores first.
 BLOCK_CELLS = 4
+#: A scan between updates is also matched from where the robot's pace puts it when that start lies
+#: more than these (m, rad) from the odometry's (a wheel reading that froze or lagged), and that
+#: match is taken when it fits at least this fraction more of the scan's beams.
+PACE_GAP_XY = 0.05
+PACE_GAP_THETA = 0.035
+PACE_GAIN = 0.05
 
 
 @dataclass
@@ -424,7 +430,11 @@ def scan_poses(submaps: Submaps, update_poses: np.ndarray, update_of_scan: np.nd
 
     The filter's own poses are draws from its proposal, each a little off the likeliest
     pose; the match takes the likeliest pose given the submap's other scans, and gives
-    the scans between updates a pose of their own instead of the odometry's."""
+    the scans between updates a pose of their own instead of the odometry's. Where the
+    odometry froze or lagged between updates (mit-csail's wheels), its start is too far
+    for the fine match; such a scan is also matched from the robot's pace: that of the two
+    scans before it when this submap holds them, else that of its update's step
+    (:func:`steady_starts`)."""
     config = config or LoopClosureConfig()
     matcher = matcher or MatcherParams()
     model = model or SensorModel()
@@ -435,27 +445,71 @@ def scan_poses(submaps: Submaps, update_poses: np.ndarray, update_of_scan: np.nd
         return out
     out = mount.laser_poses(out)
     update_poses = mount.laser_poses(update_poses)
+    times = np.array([s.timestamp for s in scans], float)
+    steady = steady_starts(update_poses, update_of_scan, times)
+    first_of_update = np.diff(update_of_scan, prepend=-1) != 0
+    submap_of = np.array([submaps.of_update(int(u)) for u in update_of_scan])
     by_submap: dict[int, list[int]] = {}
-    for k, u in enumerate(update_of_scan):
-        by_submap.setdefault(submaps.of_update(int(u)), []).append(k)
+    for k, s in enumerate(submap_of):
+        by_submap.setdefault(int(s), []).append(k)
 
     def refine(s: int, ks: list[int]) -> None:
         sub = submaps[s]
         fine = sub.fine()
         anchor = update_poses[sub.anchor]
-        for k in ks:
+        for k in ks:  # in order: the scans before k in this submap are matched already
             beams = beam_rows(scans[k], model.beam_reach(scans[k], matcher.max_range), config.refine_beams)
             if len(beams) == 0:
                 continue
-            start = sub.in_frame(anchor, out[k])
-            x, y, th, _, _, _, fitting = match(*fine, *start, beams, params, matcher.iterations,
-                                               matcher.wide_iterations)
-            if fitting >= config.refine_fit * len(beams):
-                out[k] = compose(anchor, relative(sub.anchor_pose, np.array([x, y, th])))
+            starts = [out[k]]
+            paced = None
+            if k >= 2 and not first_of_update[k] and submap_of[k - 2] == s:
+                paced = _paced_start(out, times, k)
+            paced = steady[k] if paced is None else paced
+            gap = relative(out[k], paced)
+            if np.hypot(gap[0], gap[1]) > PACE_GAP_XY or abs(gap[2]) > PACE_GAP_THETA:
+                starts.append(paced)
+            best, best_fit = None, 0
+            for start in starts:  # the paced start must fit clearly more beams to win
+                x, y, th, _, _, _, fitting = match(*fine, *sub.in_frame(anchor, start), beams, params,
+                                                   matcher.iterations, matcher.wide_iterations)
+                if best is None or fitting >= best_fit + PACE_GAIN * len(beams):
+                    best, best_fit = np.array([x, y, th]), fitting
+            if best_fit >= config.refine_fit * len(beams):
+                out[k] = compose(anchor, relative(sub.anchor_pose, best))
 
     with ThreadPoolExecutor(os.cpu_count() or 1) as pool:
         list(pool.map(lambda item: refine(*item), sorted(by_submap.items())))
     return mount.robot_poses(out)
+
+
+def _paced_start(poses: np.ndarray, times: np.ndarray, k: int) -> np.ndarray | None:
+    """Where scan ``k`` would be had the robot kept the pace of the two scans before it (``poses``),
+    or ``None`` if those are not a positive time apart."""
+    if not times[k - 1] > times[k - 2]:
+        return None
+    pace = relative(poses[k - 2], poses[k - 1]) * ((times[k] - times[k - 1]) / (times[k - 1] - times[k - 2]))
+    return compose(poses[k - 1], pace)
+
+
+def steady_starts(update_poses: np.ndarray, update_of_scan: np.ndarray, times: np.ndarray) -> np.ndarray:
+    """``(n, 3)``: where each scan between updates would be had the robot kept the pace of its last
+    update step (that step scaled by the time since over the step's time); NaN for update scans and
+    where that step's time is unknown or not positive."""
+    out = np.full((len(update_of_scan), 3), np.nan)
+    first = np.flatnonzero(np.diff(update_of_scan, prepend=-1) != 0)  # the update scans
+    at = np.full(len(update_poses), -1)
+    at[update_of_scan[first]] = first
+    u = update_of_scan
+    ok = (u >= 1) & (at[u] != np.arange(len(u)))
+    ok[ok] &= at[u[ok] - 1] >= 0
+    k = np.flatnonzero(ok)
+    t_prev, t_now = times[at[u[k] - 1]], times[at[u[k]]]
+    span = t_now - t_prev
+    k, span, t_now = k[span > 0], span[span > 0], t_now[span > 0]
+    step = relative(update_poses[u[k] - 1], update_poses[u[k]])
+    out[k] = compose(update_poses[u[k]], step * ((times[k] - t_now) / span)[:, None])
+    return out
 
 
 def sparse_step_scales(scans: list[Scan], reach: float, matcher: MatcherParams) -> np.ndarray:
