@@ -18,6 +18,7 @@ from slam_core.graph.loop_closure import (
     close_loops,
     robust_solve,
     scan_poses,
+    steady_starts,
 )
 from slam_core.graph.wide_search import field_pyramid, wide_search
 from slam_core.occupancy_grid import SensorModel
@@ -159,6 +160,23 @@ def test_every_scan_is_matched_instead_of_trusting_stale_odometry_or_noisy_poses
     assert err_th[~is_update].mean() < 0.5 * stale_th.mean()
     assert err[is_update].mean() < 0.6 * noise.mean()
     assert not any("field" in vars(sub) for sub in submaps._built.values())  # the re-match needs none
+
+
+@settings(max_examples=50, deadline=None)
+@given(st.lists(st.tuples(st.booleans(), st.floats(0.02, 0.5)), min_size=3, max_size=40),
+       st.floats(0.05, 1.5), st.floats(-3.0, 3.0))
+def test_a_robot_at_a_steady_pace_is_where_its_last_update_step_puts_it(scans, speed, heading):
+    """On a straight line at constant speed, scans at uneven times: the update step's pace, timed,
+    puts every scan after the second update exactly where it is."""
+    n = len(scans)
+    t = np.cumsum([gap for _, gap in scans])
+    truth = np.column_stack([speed * t * np.cos(heading), speed * t * np.sin(heading), np.full(n, heading)])
+    is_update = np.array([True, *(update for update, _ in scans[1:])])
+    update_of_scan = np.cumsum(is_update) - 1
+    steady = steady_starts(truth[is_update], update_of_scan, t)
+    known = ~is_update & (update_of_scan >= 1)
+    np.testing.assert_allclose(steady[known], truth[known], atol=1e-9)
+    assert np.all(np.isnan(steady[~known]))
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
