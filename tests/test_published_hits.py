@@ -1,5 +1,6 @@
 """The published map's hit sums (what a checkpoint keeps after a loop-closing solve) are those the
-filter's own kernels would accumulate from the session's scans at the session's poses."""
+filter's own kernels would accumulate from the session's scans at the session's poses; a session
+saved right after a solve renders the published map itself."""
 
 from __future__ import annotations
 
@@ -12,17 +13,24 @@ from slam_core.rbpf.tiled_map import HIT_N, TiledMaps
 from tests.synthetic_room import room_scan
 
 
-def test_the_published_hit_sums_match_the_session_drawn_by_the_filters_kernels():
+def mapping(scans: int, step: tuple[float, float]):
+    """A filter with the live back end driven through the synthetic room, ``step`` (m) a scan; yields
+    it after each scan, every solve taken right after the update that started it."""
     slam = RBPFSlam(RBPFConfig(particles=3, linear_update=0.1, angular_update=0.1), seed=4)
     loops = LoopClosing()
     loops.attach(slam, seeded=False)
-    for i in range(32):  # a solve after 20 updates, 12 more drawn in after it
-        pose = np.array([-1.0 + 0.09 * i, -0.5 + 0.05 * i, 0.08 * i])
+    for i in range(scans):
+        pose = np.array([-1.0 + step[0] * i, -0.5 + step[1] * i, 0.08 * i])
         scan = room_scan(pose)
         if slam.step(pose, scan):
             loops.updated(slam, scan)
-        loops.wait()  # each solve is taken right after the update that started it
+        loops.wait()
         loops.take(slam)
+        yield slam, loops
+
+
+def test_the_published_hit_sums_match_the_session_drawn_by_the_filters_kernels():
+    *_, (slam, loops) = mapping(32, (0.09, 0.05))  # a solve after 20 updates, 12 more drawn in after it
     assert loops.solved is not None and len(loops.solved.poses) < len(loops.back_end.scans)
     session = loops.session(slam, slam.estimate().pose)
     hits = loops.published_hits(session).dense()
@@ -41,17 +49,8 @@ def test_the_published_hit_sums_match_the_session_drawn_by_the_filters_kernels()
 def test_a_session_saved_right_after_a_solve_renders_the_published_map():
     """Saved and resumed, a session must give back the map people saw: the solve's (clamped after
     the sum), not one integrated beam by beam, which differs wherever a cell was seen both ways."""
-    slam = RBPFSlam(RBPFConfig(particles=3, linear_update=0.1, angular_update=0.1), seed=4)
-    loops = LoopClosing()
-    loops.attach(slam, seeded=False)
     compared = 0
-    for i in range(45):
-        pose = np.array([-1.0 + 0.06 * i, -0.5 + 0.04 * i, 0.08 * i])
-        scan = room_scan(pose)
-        if slam.step(pose, scan):
-            loops.updated(slam, scan)
-        loops.wait()
-        loops.take(slam)
+    for slam, loops in mapping(45, (0.06, 0.04)):
         if loops.solved is not None and len(loops.solved.poses) == len(loops.back_end.scans):
             grid, published = loops.session(slam, slam.estimate().pose).grid(), loops.published_grid
             assert grid.shape == published.shape and np.array_equal(grid.origin, published.origin)
