@@ -25,7 +25,7 @@ def mapping(scans: int, step: tuple[float, float]):
         if slam.step(pose, scan):
             loops.updated(slam, scan)
         loops.wait()
-        loops.take(slam)
+        loops.take(slam, slam.estimate().pose)
         yield slam, loops
 
 

@@ -66,9 +66,10 @@ class LoopClosing:
         """Why the back end's last solve failed, once (see :meth:`LiveBackEnd.failure`)."""
         return self.back_end.failure() if self.back_end is not None else None
 
-    def take(self, estimator) -> np.ndarray | None:
+    def take(self, estimator, pose: np.ndarray) -> np.ndarray | None:
         """Use a finished solve: its correction, and its map with the updates since drawn in.
-        Returns the published pose's jump ``[dx, dy, dyaw]`` when the solve closed a loop."""
+        Returns the jump ``[dx, dy, dyaw]`` of the filter's ``pose`` as published (corrected) when
+        the solve closed a loop: the correction turns, so the jump depends on where it is measured."""
         result = self.back_end.take() if self.back_end is not None else None
         if result is None:
             return None
@@ -77,8 +78,8 @@ class LoopClosing:
         if result.loop_edges > self.edges_seen:
             self.edges_seen = result.loop_edges
             self.closures += 1
-            before = best[-1] if self.solved is None else compose(self.solved.correction, best[-1])
-            jump = compose(result.correction, best[-1]) - before
+            before = pose if self.solved is None else compose(self.solved.correction, pose)
+            jump = compose(result.correction, pose) - before
             jump[2] = wrap_angle(jump[2])
         self.solved = result
         scans = self.back_end.scans

@@ -162,6 +162,7 @@ class Worker:
                           prior=self._usable(checkpoint.session))
         self.updated_at: np.ndarray | None = None  # re-anchored odometry at the estimator's last update
         self.ticks: tuple[int, int] | None = None  # encoder counts of the last step
+        self.odom_t: float | None = None  # the stamp of the last step's odometry
         self.steps = 0
         self.rate_hz = 0.0
         self._step_rate = SlidingRate()
@@ -476,6 +477,7 @@ class Worker:
         reading, scan = pair.odometry, pair.scan
         odometry = reading.pose
         self.ticks = reading.ticks
+        self.odom_t = float(reading.stamp)
         relocalizing = self.relocalizing is not None
         if self.clock is not None:
             self.clock.mark("first scan")
@@ -518,14 +520,15 @@ class Worker:
 
     def _take_back_end(self) -> None:
         """Use a finished solve (:class:`~app.worker.loop_closing.LoopClosing`); one that closed a
-        loop is an event with the published pose's jump, one that failed an error event."""
+        loop is an event with the published pose's jump (at the last step's odometry, ``odom_t``),
+        one that failed an error event."""
         failure = self.loops.failure()
         if failure is not None:
             self._event("error", detail=f"loop closing failed ({failure}); the next submap solves again")
-        jump = self.loops.take(self.estimator)
+        jump = self.loops.take(self.estimator, self.pose)
         if jump is not None:
             self._event("loop_closed", closures=self.loops.closures, loop_edges=self.loops.solved.loop_edges,
-                        seq=self.steps, jump=[round(float(v), 4) for v in jump])
+                        seq=self.steps, odom_t=self.odom_t, jump=[round(float(v), 4) for v in jump])
 
     def _finish_replay(self) -> None:
         """The final optimisation: publish and write the optimised map and trajectory; mapping stops."""
