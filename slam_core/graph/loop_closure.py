@@ -457,24 +457,29 @@ def scan_poses(submaps: Submaps, update_poses: np.ndarray, update_of_scan: np.nd
         sub = submaps[s]
         fine = sub.fine()
         anchor = update_poses[sub.anchor]
+
+        def fitted(start: np.ndarray, beams: np.ndarray) -> tuple[np.ndarray, int]:
+            """The fine match from ``start`` (the anchor's frame) and how many beams it fits."""
+            x, y, th, _, _, _, fitting = match(*fine, *sub.in_frame(anchor, start), beams, params,
+                                               matcher.iterations, matcher.wide_iterations)
+            return np.array([x, y, th]), fitting
+
         for k in ks:  # in order: the scans before k in this submap are matched already
             beams = beam_rows(scans[k], model.beam_reach(scans[k], matcher.max_range), config.refine_beams)
             if len(beams) == 0:
                 continue
-            starts = [out[k]]
-            paced = None
-            if k >= 2 and not first_of_update[k] and submap_of[k - 2] == s:
-                paced = _paced_start(out, times, k)
-            paced = steady[k] if paced is None else paced
-            gap = relative(out[k], paced)
-            if np.hypot(gap[0], gap[1]) > PACE_GAP_XY or abs(gap[2]) > PACE_GAP_THETA:
-                starts.append(paced)
-            best, best_fit = None, 0
-            for start in starts:  # the paced start must fit clearly more beams to win
-                x, y, th, _, _, _, fitting = match(*fine, *sub.in_frame(anchor, start), beams, params,
-                                                   matcher.iterations, matcher.wide_iterations)
-                if best is None or fitting >= best_fit + PACE_GAIN * len(beams):
-                    best, best_fit = np.array([x, y, th]), fitting
+            best, best_fit = fitted(out[k], beams)
+            gain = PACE_GAIN * len(beams)  # the paced start must fit clearly more beams to win,
+            if best_fit + gain <= len(beams):  # which it cannot where the odometry's fits nearly all
+                paced = None
+                if k >= 2 and not first_of_update[k] and submap_of[k - 2] == s:
+                    paced = _paced_start(out, times, k)
+                paced = steady[k] if paced is None else paced
+                gap = relative(out[k], paced)
+                if np.hypot(gap[0], gap[1]) > PACE_GAP_XY or abs(gap[2]) > PACE_GAP_THETA:
+                    pose, fitting = fitted(paced, beams)
+                    if fitting >= best_fit + gain:
+                        best, best_fit = pose, fitting
             if best_fit >= config.refine_fit * len(beams):
                 out[k] = compose(anchor, relative(sub.anchor_pose, best))
 
