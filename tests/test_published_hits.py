@@ -4,9 +4,14 @@ saved right after a solve renders the published map itself."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from app.worker.loop_closing import LoopClosing
+from slam_core.estimator import Estimate
+from slam_core.geometry import compose, relative, wrap_angle
+from slam_core.pipelines.log_slam import best_updates
 from slam_core.rbpf.config import RBPFConfig
 from slam_core.rbpf.filter import RBPFSlam
 from slam_core.rbpf.tiled_map import HIT_N, TiledMaps
@@ -58,3 +63,48 @@ def test_a_session_saved_right_after_a_solve_renders_the_published_map():
             np.testing.assert_array_equal(grid.data, published.data)
             compared += 1
     assert compared > 0
+
+
+def test_a_closed_loop_reports_the_jump_of_the_pose_it_was_measured_at():
+    """Twice round the room on odometry that turns 1 deg a metre too much, mapped by a filter that
+    only follows the odometry: the live back end closes the loop. Each closure's jump is how far the
+    published (corrected) pose moved at that step, measured ahead of the filter's last update
+    (where the worker's pose is between updates): the correction turns, so the jump differs by the
+    lever from the last update."""
+    matcher = replace(RBPFConfig().matcher, min_matched=1.01, good_match=1.01, coarse_linear_cells=0,
+                      lead_rotations=0)
+    config = RBPFConfig(particles=1, linear_update=0.3, angular_update=0.3, matcher=matcher,
+                        loop_closure=replace(RBPFConfig().loop_closure, submap_updates=6))
+    slam = RBPFSlam(config, seed=2)
+    loops = LoopClosing()
+    loops.attach(slam, seeded=False)
+    a = 2 * np.pi * np.arange(400) / 200  # 0.05 m a scan round an ellipse, 2.2 x 1.4 m
+    truths = np.column_stack([0.5 + 2.2 * np.cos(a), 0.4 + 1.4 * np.sin(a), a + np.pi / 2])
+    odometry = [truths[0]]
+    for k in range(1, len(truths)):
+        step = relative(truths[k - 1], truths[k])
+        step[2] += np.radians(1) * np.hypot(step[0], step[1])
+        odometry.append(compose(odometry[-1], step))
+    jumps, levers = [], []
+    updated_at = None
+    for i, (truth, odom) in enumerate(zip(truths, odometry, strict=True)):
+        scan = room_scan(truth)
+        if slam.step(odom, scan):
+            loops.updated(slam, scan)
+            updated_at = odom
+            loops.wait()  # a solve finishes at once, and is taken at every third scan
+        if i % 3:
+            continue
+        pose = compose(slam.estimate().pose, relative(updated_at, odom))  # as the worker dead-reckons it
+        before = loops.corrected(Estimate(pose=pose)).pose
+        jump = loops.take(slam, pose)
+        after = loops.corrected(Estimate(pose=pose)).pose
+        if jump is not None:
+            moved = after - before
+            moved[2] = wrap_angle(moved[2])
+            np.testing.assert_allclose(jump, moved, atol=1e-9)
+            jumps.append(jump)
+            levers.append(np.hypot(*(pose[:2] - best_updates(slam).poses[-1, :2])))
+    assert loops.closures >= 1 and len(jumps) == loops.closures
+    assert max(abs(j[2]) for j in jumps) > np.radians(3)  # the correction turned (seen: 6 deg)
+    assert max(levers) > 0.03  # and was measured away from the last update (seen: 6-7 cm)
