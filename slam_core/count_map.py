@@ -7,15 +7,17 @@ every beam as :meth:`~slam_core.occupancy_grid.OccupancyGrid.integrate` does, so
 depend on the order of the scans, and a submap (a block of consecutive updates) can be taken out
 and put back from other poses exactly (the counts are integers).
 
-:class:`CountMap` keeps the sums of every submap's counts in one dense pair of counts (its grid's
-log-odds are made from them), and of each submap only the laser poses it was traced from and its
-echoes' hit sums (:class:`SubmapEchoes`): its memory grows with the area mapped, not with the updates.
+:class:`CountMap` keeps the sums of every submap's counts in tiles of :data:`TILE` x :data:`TILE`
+cells, only where a beam touched (its grid's log-odds are made from them), and of each submap only the
+laser poses it was traced from and its echoes' hit sums (:class:`SubmapEchoes`): its memory grows with
+the area mapped, not with the updates or the box around it.
 :meth:`CountMap.update` traces again only the submaps whose poses moved (an update by more than
 :data:`MOVE_CELLS` of a cell or :data:`MOVE_RAD`) and the ones that are new or grew; a moved
 submap's old counts are traced again from its old poses (the same cells, exactly) and taken out.
 Cells are on the absolute lattice (cell ``(ix, iy)`` spans ``[ix, ix + 1) * resolution``), and
-the dense counts grow in chunks of :data:`~slam_core.occupancy_grid.GROW_CHUNK` cells aligned
-to it, as an :class:`~slam_core.occupancy_grid.OccupancyGrid` started empty does.
+the map's box grows in chunks of :data:`~slam_core.occupancy_grid.GROW_CHUNK` cells aligned
+to it, as an :class:`~slam_core.occupancy_grid.OccupancyGrid` started empty does; the tiles are
+those chunks.
 :class:`slam_core.map_bands.MapBands` gives the same cells for a finished log, a band of rows at a time.
 """
 
@@ -36,6 +38,8 @@ MOVE_CELLS = 0.1
 #: ... or turned by more than this (rad).
 MOVE_RAD = 1e-3
 OCC, FREE = 0, 1
+#: Side (cells) of the tiles the counts are kept in: the box's chunks, so a tile lies wholly in the box.
+TILE = GROW_CHUNK
 
 
 @njit
@@ -73,16 +77,6 @@ def _count_beams(counts, touched, ix0, iy0, inv, poses, angles, ranges, offsets,
 
 
 @njit
-def _add_counts(counts, cells, width, dx, dy, occupied, free, sign):
-    """``counts[iy, ix]`` += ``sign`` * the counts of ``cells`` (flat indices into rows of ``width``,
-    at ``ix - dx, iy - dy``)."""
-    for k in range(cells.shape[0]):
-        iy, ix = cells[k] // width + dy, cells[k] % width + dx
-        counts[iy, ix, OCC] += sign * np.int64(occupied[k])
-        counts[iy, ix, FREE] += sign * np.int64(free[k])
-
-
-@njit
 def clamped_log_odds(occupied, free, l_occ, l_free, l_min, l_max):
     """A cell's log-odds from its counts of observations (0 for none), clamped once after the sum."""
     return min(max(l_occ * occupied + l_free * free, l_min), l_max)
@@ -95,6 +89,54 @@ def _log_odds(counts, out, l_occ, l_free, l_min, l_max):
         for ix in range(counts.shape[1]):
             n = counts[iy, ix]
             out[iy, ix] = clamped_log_odds(n[OCC], n[FREE], l_occ, l_free, l_min, l_max)
+
+
+@njit
+def _missing_tiles(slots, cells, width, cx, cy, missing):
+    """Mark in ``missing`` (``slots``' shape, zeroed) the tiles that ``cells`` (flat indices into rows
+    of ``width`` from box cell ``(cx, cy)``) touch and that have no slot (-1); returns how many."""
+    n = 0
+    for k in range(cells.shape[0]):
+        ty, tx = (cy + cells[k] // width) // TILE, (cx + cells[k] % width) // TILE
+        if slots[ty, tx] < 0 and not missing[ty, tx]:
+            missing[ty, tx] = True
+            n += 1
+    return n
+
+
+@njit
+def _add_tiled(pool, slots, cells, width, cx, cy, occupied, free, sign):
+    """The tiles' counts += ``sign`` * the counts of ``cells`` (as :func:`_missing_tiles`; every tile
+    they touch has a slot)."""
+    for k in range(cells.shape[0]):
+        iy, ix = cy + cells[k] // width, cx + cells[k] % width
+        t = slots[iy // TILE, ix // TILE]
+        pool[t, iy % TILE, ix % TILE, OCC] += sign * np.int64(occupied[k])
+        pool[t, iy % TILE, ix % TILE, FREE] += sign * np.int64(free[k])
+
+
+@njit
+def _empty_slots(pool, slots, ty0, tx0, ty1, tx1, out):
+    """The slots of tiles ``ty0..ty1``, ``tx0..tx1`` that hold no count, to ``out``; returns how many."""
+    n = 0
+    for ty in range(ty0, ty1 + 1):
+        for tx in range(tx0, tx1 + 1):
+            t = slots[ty, tx]
+            if t >= 0 and not np.any(pool[t]):
+                out[n] = t
+                n += 1
+    return n
+
+
+@njit
+def _tiled_log_odds(pool, slots, out, l_occ, l_free, l_min, l_max):
+    """``out`` (the box's cells, float32): the log-odds of every tile with a slot (the others stay)."""
+    for ty in range(slots.shape[0]):
+        for tx in range(slots.shape[1]):
+            t = slots[ty, tx]
+            if t >= 0:
+                _log_odds(pool[t], out[ty * TILE:(ty + 1) * TILE, tx * TILE:(tx + 1) * TILE],
+                          l_occ, l_free, l_min, l_max)
 
 
 def scan_limits(scans: list[Scan], model: SensorModel) -> np.ndarray:
@@ -200,8 +242,12 @@ class CountMap:
             raise ValueError(f"submap_updates must be at least 1, got {submap_updates}")
         self.resolution, self.model, self.submap_updates = float(resolution), model, submap_updates
         self.submaps: list[SubmapEchoes] = []
-        self.corner = np.zeros(2, np.int64)  # the absolute cell (ix, iy) of counts[0, 0]
-        self.counts = np.zeros((0, 0, 2), np.int32)
+        #: Each tile's counts ``(TILE, TILE, OCC | FREE)``, in the pool's slot that ``slots`` gives a
+        #: tile of the box (-1: no beam touched it); the slots of tiles emptied are used again.
+        self.pool = np.zeros((0, TILE, TILE, 2), np.int32)
+        self.slots = np.full((0, 0), -1, np.int32)
+        self._free: list[int] = []
+        self.corner = np.zeros(2, np.int64)  # the absolute cell (ix, iy) of the box's first (a tile's)
 
     def update(self, laser_poses: np.ndarray, scans: list[Scan]) -> int:
         """Make the map that of ``scans`` seen from ``laser_poses``, the updates so far (they only grow);
@@ -232,36 +278,68 @@ class CountMap:
     def _trace(self, laser_poses: np.ndarray, scans: list[Scan]) -> SubmapCounts:
         return SubmapCounts.trace(laser_poses, scans, self.resolution, self.model)
 
+    @property
+    def shape(self) -> tuple[int, int]:
+        """The box's ``(ny, nx)`` cells: whole tiles."""
+        return self.slots.shape[0] * TILE, self.slots.shape[1] * TILE
+
     def _add(self, submap: SubmapCounts, sign: int) -> None:
+        """Add ``sign`` times ``submap``'s counts; a tile left with none gives its slot back."""
         if len(submap.cells) == 0:
             return
         self._grow_to(submap.lo, submap.hi)
-        dx, dy = submap.corner - self.corner
-        _add_counts(self.counts, submap.cells, submap.width, dx, dy, submap.occupied, submap.free, sign)
+        cx, cy = submap.corner - self.corner
+        if sign > 0:
+            missing = np.zeros(self.slots.shape, np.bool_)
+            if _missing_tiles(self.slots, submap.cells, submap.width, cx, cy, missing):
+                self._allocate(np.argwhere(missing))
+        _add_tiled(self.pool, self.slots, submap.cells, submap.width, cx, cy, submap.occupied, submap.free,
+                   sign)
+        if sign < 0:
+            (tx0, ty0), (tx1, ty1) = (np.floor_divide(v - self.corner, TILE) for v in (submap.lo, submap.hi))
+            out = np.empty((ty1 - ty0 + 1) * (tx1 - tx0 + 1), np.int64)
+            empty = out[:_empty_slots(self.pool, self.slots, ty0, tx0, ty1, tx1, out)]
+            self.slots[np.isin(self.slots, empty)] = -1
+            self._free.extend(int(t) for t in empty)
+
+    def _allocate(self, tiles: np.ndarray) -> None:
+        """A zeroed slot for each tile ``(ty, tx)`` of the box: freed ones first, then new ones (the
+        pool grows by half)."""
+        fresh = len(tiles) - len(self._free)
+        if fresh > 0:
+            size = len(self.pool)
+            grown = np.zeros((max(size + fresh, size * 3 // 2), TILE, TILE, 2), np.int32)
+            grown[:size] = self.pool
+            self._free.extend(range(size, len(grown)))
+            self.pool = grown
+        for ty, tx in tiles:
+            t = self._free.pop()
+            self.pool[t] = 0
+            self.slots[ty, tx] = t
 
     def _grow_to(self, lo: np.ndarray, hi: np.ndarray) -> None:
-        """Make the dense arrays cover absolute cells ``lo..hi`` (in chunks on the lattice)."""
-        ny, nx = self.counts.shape[:2]
-        if nx and ny:
-            lo, hi = np.minimum(lo, self.corner), np.maximum(hi, self.corner + np.array([nx - 1, ny - 1]))
-        new_lo = np.floor_divide(lo, GROW_CHUNK) * GROW_CHUNK
-        new_hi = (np.floor_divide(hi, GROW_CHUNK) + 1) * GROW_CHUNK
-        if nx and ny and np.array_equal(new_lo, self.corner) and np.array_equal(new_hi - new_lo, [nx, ny]):
+        """Make the box cover absolute cells ``lo..hi`` (in tiles on the lattice)."""
+        nty, ntx = self.slots.shape
+        if nty and ntx:
+            lo = np.minimum(lo, self.corner)
+            hi = np.maximum(hi, self.corner + TILE * np.array([ntx, nty]) - 1)
+        new_lo = np.floor_divide(lo, TILE) * TILE
+        (ntx1, nty1) = np.floor_divide(hi, TILE) + 1 - new_lo // TILE
+        if nty and ntx and np.array_equal(new_lo, self.corner) and (nty1, ntx1) == (nty, ntx):
             return
-        (x0, y0), (x1, y1) = new_lo, new_hi
-        counts = np.zeros((y1 - y0, x1 - x0, 2), np.int32)
-        if nx and ny:
-            x, y = self.corner - new_lo
-            counts[y:y + ny, x:x + nx] = self.counts
-        self.corner, self.counts = new_lo, counts
+        slots = np.full((nty1, ntx1), -1, np.int32)
+        if nty and ntx:
+            x, y = (self.corner - new_lo) // TILE
+            slots[y:y + nty, x:x + ntx] = self.slots
+        self.corner, self.slots = new_lo, slots
 
     def grid(self, extent: tuple[float, float, float, float] | None = None) -> OccupancyGrid:
         """A fresh grid of the map, over its cells and (when given) the box ``extent`` too
         (``(xmin, ymin, xmax, ymax)``, a grid's :meth:`~slam_core.occupancy_grid.OccupancyGrid.extent`)."""
-        grid, cells = _grid_over(self.resolution, self.model, self.corner, self.counts.shape[:2], extent)
-        if cells.size:
+        grid, cells = _grid_over(self.resolution, self.model, self.corner, self.shape, extent)
+        if cells.size:  # the cells of no tile have no counts: log-odds 0, as the grid starts
             m = self.model
-            _log_odds(self.counts, cells, m.l_occ, m.l_free, m.l_min, m.l_max)
+            _tiled_log_odds(self.pool, self.slots, cells, m.l_occ, m.l_free, m.l_min, m.l_max)
         return grid
 
     def hit_sums(self, grid: OccupancyGrid) -> SparseHits:

@@ -92,7 +92,7 @@ class MapBands:
                 self._blocks.append((submap.poses, scans[block], limits, submap.lo[1], submap.hi[1]))
                 lows.append(submap.lo)
                 highs.append(submap.hi)
-        if lows:  # as CountMap's dense counts grow
+        if lows:  # as CountMap's box grows
             self.corner = np.floor_divide(np.min(lows, axis=0), GROW_CHUNK) * GROW_CHUNK
             nx, ny = (np.floor_divide(np.max(highs, axis=0), GROW_CHUNK) + 1) * GROW_CHUNK - self.corner
         else:

@@ -8,7 +8,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from slam_core.count_map import MOVE_CELLS, MOVE_RAD, CountMap
+from slam_core.count_map import MOVE_CELLS, MOVE_RAD, TILE, CountMap
 from slam_core.occupancy_grid import OccupancyGrid, SensorModel
 from slam_core.rbpf.hit_render import hit_sums_on
 from tests.test_hit_render import scans_with_every_kind_of_beam
@@ -48,6 +48,18 @@ def same_cells(a: OccupancyGrid, b: OccupancyGrid) -> tuple[np.ndarray, np.ndarr
         full[y:y + g.shape[0], x:x + g.shape[1]] = g.data
         out.append(full)
     return out[0], out[1]
+
+
+def tiles_of(counts: CountMap) -> dict[tuple[int, int], np.ndarray]:
+    """The counts of each tile that holds some, by absolute tile ``(ty, tx)``."""
+    ty0, tx0 = counts.corner[::-1] // TILE
+    return {(ty0 + ty, tx0 + tx): counts.pool[t] for (ty, tx), t in np.ndenumerate(counts.slots) if t >= 0}
+
+
+def same_tiles(a: CountMap, b: CountMap) -> bool:
+    """Whether ``a`` and ``b`` hold the same tiles with the same counts."""
+    ta, tb = tiles_of(a), tiles_of(b)
+    return ta.keys() == tb.keys() and all(np.array_equal(ta[k], tb[k]) for k in ta)
 
 
 def test_the_map_is_the_clamped_sum_of_every_beam_and_its_hit_sums_the_echoes():
@@ -99,7 +111,7 @@ def test_an_incremental_render_equals_one_from_scratch_and_traces_only_moved_sub
     scratch.update(new, scans)
     mine, theirs = same_cells(counts.grid(), scratch.grid())
     np.testing.assert_array_equal(mine, theirs)
-    assert np.array_equal(counts.counts.sum(axis=(0, 1)), scratch.counts.sum(axis=(0, 1)))
+    assert same_tiles(counts, scratch)
     grid = counts.grid()
     np.testing.assert_allclose(counts.hit_sums(grid).dense(), scratch.hit_sums(grid).dense(), atol=1e-5)
 
@@ -112,7 +124,8 @@ def test_of_each_submap_the_map_keeps_its_poses_and_echoes_not_the_cells_it_cros
     counts.update(poses, scans)
     kept = sum(a.nbytes for s in counts.submaps for a in vars(s).values() if isinstance(a, np.ndarray))
     per_echo = np.dtype(np.int32).itemsize + 3 * np.dtype(np.float64).itemsize  # a cell and its sums
-    beams, cells = sum(len(s) for s in scans), np.count_nonzero(counts.counts.any(axis=2))
+    beams = sum(len(s) for s in scans)
+    cells = sum(np.count_nonzero(t.any(axis=2)) for t in tiles_of(counts).values())
     assert cells > 8 * beams  # the beams cross many more cells than they hold echoes
     assert kept <= poses.nbytes + per_echo * beams + 2 * 8 * len(counts.submaps)  # + each corner
 
@@ -152,3 +165,31 @@ def test_bad_input_is_refused():
         counts.update(poses[:4], scans[:4])
     with pytest.raises(ValueError, match="at least 1"):
         CountMap(RES, MODEL, 0)
+
+
+def test_the_counts_are_kept_where_beams_touched_not_over_the_box():
+    """Two rooms' worth of updates 47 m apart: the map's box spans both, its counts only the tiles
+    the beams touched; the map is still the clamped sum of every beam."""
+    poses, scans = updates(4, 8)
+    both = np.vstack([poses, poses + np.array([40.0, 25.0, 0.0])])
+    counts = CountMap(RES, MODEL, SIZE)
+    counts.update(both, scans + scans)
+    grid = counts.grid()
+    mine, oracle = same_cells(grid, unclamped_oracle(both, scans + scans))
+    np.testing.assert_allclose(mine, oracle, atol=1e-4)
+    box = grid.data.size * 8  # two int32 a cell
+    assert grid.shape[1] * RES > 50 and counts.pool.nbytes < box / 2
+
+
+def test_a_submap_moved_far_leaves_no_counts_behind():
+    poses, scans = updates(6, 12)
+    counts = CountMap(RES, MODEL, SIZE)
+    counts.update(poses, scans)
+    moved = poses.copy()
+    moved[:SIZE, :2] += [30.0, -20.0]  # the first submap, far from where it was traced
+    assert counts.update(moved, scans) == 1
+    scratch = CountMap(RES, MODEL, SIZE)
+    scratch.update(moved, scans)
+    assert same_tiles(counts, scratch) and all(t.any() for t in tiles_of(counts).values())
+    mine, theirs = same_cells(counts.grid(), scratch.grid())
+    np.testing.assert_array_equal(mine, theirs)
