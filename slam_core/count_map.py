@@ -303,8 +303,8 @@ class CountMap:
             self._free.extend(int(t) for t in empty)
 
     def _allocate(self, tiles: np.ndarray) -> None:
-        """A zeroed slot for each tile ``(ty, tx)`` of the box: freed ones first, then new ones (the
-        pool grows by half)."""
+        """A slot for each tile ``(ty, tx)`` of the box: freed ones first (freed only when they hold no
+        count), then new ones (the pool grows by half, zeroed)."""
         fresh = len(tiles) - len(self._free)
         if fresh > 0:
             size = len(self.pool)
@@ -313,9 +313,7 @@ class CountMap:
             self._free.extend(range(size, len(grown)))
             self.pool = grown
         for ty, tx in tiles:
-            t = self._free.pop()
-            self.pool[t] = 0
-            self.slots[ty, tx] = t
+            self.slots[ty, tx] = self._free.pop()
 
     def _grow_to(self, lo: np.ndarray, hi: np.ndarray) -> None:
         """Make the box cover absolute cells ``lo..hi`` (in tiles on the lattice)."""
