@@ -26,6 +26,7 @@ from typing import BinaryIO
 import numpy as np
 
 from slam_core.geometry import relative, wrap_angle
+from slam_core.io.read_ahead import ReadAhead
 from slam_core.scan import Scan, uniform_angles
 
 #: Largest pose or odometry value accepted (m, rad, m/s): larger ones are garbage, not travel.
@@ -137,17 +138,17 @@ class CarmenReader:
     def __iter__(self) -> Iterator[LaserRecord | OdomRecord | ParamRecord]:
         size = max(self.path.stat().st_size, 1)
         with open(self.path, "rb") as raw:
-            stream = _decompressing(raw, self.path)
+            lines = ReadAhead(_decompressing(raw, self.path), raw)
             line_number = 0
             pending = None
             try:
-                for line_bytes in stream:
+                for line_bytes in lines:
                     line_number += 1
                     if pending is not None:
                         yield pending
                     pending = self._parse_checked(line_bytes, line_number)
                     if self.progress is not None and line_number % 2000 == 0:
-                        self.progress(min(raw.tell() / size, 1.0))
+                        self.progress(min(lines.position / size, 1.0))
             except EOFError as exc:
                 if pending is not None:
                     yield pending
@@ -157,6 +158,8 @@ class CarmenReader:
                 if pending is not None:
                     yield pending
                 raise LogFormatError(self.path, line_number + 1, f"cannot decompress ({exc})") from exc
+            finally:
+                lines.close()  # before the file closes under its thread
             if pending is not None:
                 yield pending
             if self.progress is not None:
