@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from slam_core.jit import njit
+from slam_core.mapped_pools import MappedPools
 from slam_core.occupancy_grid import GROW_CHUNK, OccupancyGrid, SensorModel
 from slam_core.raycast import FAR_TAIL, beam_endpoint, cleared_cells, far_gap, ray_buffer_size, trace_ray
 from slam_core.rbpf.hit_render import SparseHits, echo_endpoints
@@ -244,7 +245,8 @@ class CountMap:
         self.submaps: list[SubmapEchoes] = []
         #: Each tile's counts ``(TILE, TILE, OCC | FREE)``, in the pool's slot that ``slots`` gives a
         #: tile of the box (-1: no beam touched it); the slots of tiles emptied are used again.
-        self.pool = np.zeros((0, TILE, TILE, 2), np.int32)
+        self._pools = MappedPools(self)  # the pool grows in place, new slots zero until written
+        self._pools.zeros("pool", (0, TILE, TILE, 2), np.int32)
         self.slots = np.full((0, 0), -1, np.int32)
         self._free: list[int] = []
         self.corner = np.zeros(2, np.int64)  # the absolute cell (ix, iy) of the box's first (a tile's)
@@ -304,14 +306,12 @@ class CountMap:
 
     def _allocate(self, tiles: np.ndarray) -> None:
         """A slot for each tile ``(ty, tx)`` of the box: freed ones first (freed only when they hold no
-        count), then new ones (the pool grows by half, zeroed)."""
+        count), then new ones (the pool grows by half, in place: :mod:`slam_core.mapped_pools`)."""
         fresh = len(tiles) - len(self._free)
         if fresh > 0:
             size = len(self.pool)
-            grown = np.zeros((max(size + fresh, size * 3 // 2), TILE, TILE, 2), np.int32)
-            grown[:size] = self.pool
-            self._free.extend(range(size, len(grown)))
-            self.pool = grown
+            self._pools.grow("pool", max(size + fresh, size * 3 // 2))
+            self._free.extend(range(size, len(self.pool)))
         for ty, tx in tiles:
             self.slots[ty, tx] = self._free.pop()
 

@@ -26,11 +26,10 @@ write leaves it shared as it leaves any cell at ``l_min``.
 
 from __future__ import annotations
 
-import mmap
-
 import numpy as np
 
 from slam_core.jit import njit, split
+from slam_core.mapped_pools import MappedPools
 from slam_core.occupancy_grid import OccupancyGrid, SensorModel
 from slam_core.raycast import FAR_TAIL, beam_endpoint, far_gap, ray_buffer_size, trace_ray
 
@@ -389,13 +388,13 @@ class TiledMaps:
                  capacity: int = 16384):
         self.resolution = float(resolution)
         self.model = model or SensorModel()
-        self._mapped: dict[str, mmap.mmap] = {}  # the large pools' memory, grown in place
-        self.lo = self._mapped_zeros("lo", (capacity, TILE, TILE))
+        self._pools = MappedPools(self)  # the large pools, grown in place
+        self._pools.zeros("lo", (capacity, TILE, TILE), np.float32)
         self.refs = np.zeros(capacity, np.int32)
         self.hit_of = np.full((capacity, PARTS), -1, np.int32)
         self.free_stack = np.arange(capacity - 1, -1, -1, dtype=np.int32)
         self.free_top = np.array([capacity], np.int64)
-        self.hit_blocks = self._mapped_zeros("hit_blocks", (capacity, PART, PART, 3))
+        self._pools.zeros("hit_blocks", (capacity, PART, PART, 3), np.float32)
         self.hit_free_stack = np.arange(capacity - 1, -1, -1, dtype=np.int32)
         self.hit_free_top = np.array([capacity], np.int64)
         self.tables = np.full((n_maps, 0, 0), -1, np.int32)
@@ -532,33 +531,20 @@ class TiledMaps:
             self.hit_free_stack = _grown_stack(self.hit_free_stack, free, old, new)
             self.hit_free_top[0] = free + new - old
 
-    def _mapped_zeros(self, name: str, shape: tuple[int, ...]) -> np.ndarray:
-        """A zeroed float32 pool ``name`` in private anonymous memory of its own (see :meth:`_grow`)."""
-        self._mapped[name] = mmap.mmap(-1, max(int(np.prod(shape)) * 4, 1), flags=mmap.MAP_PRIVATE)
-        return np.frombuffer(self._mapped[name], np.float32, int(np.prod(shape))).reshape(shape)
-
     def _grow(self, name: str, length: int) -> None:
         """Give the pool array ``name`` ``length`` rows, the new ones zero, in place when nothing else
-        refers to it (so the old rows are never held twice, as a copy would), else copied. The
-        tiles and hit blocks are grown by remapping their memory: their new rows take none until
-        written (a resized array's new rows are zeroed, and so held, at once)."""
+        refers to it (so the old rows are never held twice, as a copy would). The tiles and hit
+        blocks are mapped pools (:mod:`slam_core.mapped_pools`): their new rows take no memory
+        until written (a resized array's new rows are zeroed, and so held, at once)."""
+        if name in self._pools:
+            self._pools.grow(name, length)
+            return
         array = self.__dict__.pop(name)  # so that this is its only reference
         shape = (length, *array.shape[1:])
-        if name in self._mapped:
-            memory = self._mapped[name]
-            try:
-                del array
-                memory.resize(int(np.prod(shape)) * 4)
-                array = np.frombuffer(memory, np.float32, int(np.prod(shape))).reshape(shape)
-            except (BufferError, SystemError):  # another view of it; or no mremap (not Linux)
-                old = np.frombuffer(memory, np.float32).reshape(-1, *shape[1:])
-                array = self._mapped_zeros(name, shape)
-                array[:len(old)] = old
-        else:
-            try:
-                array.resize(shape)
-            except ValueError:
-                array = np.concatenate([array, np.zeros((length - len(array), *shape[1:]), array.dtype)])
+        try:
+            array.resize(shape)
+        except ValueError:
+            array = np.concatenate([array, np.zeros((length - len(array), *shape[1:]), array.dtype)])
         setattr(self, name, array)
 
     def to_grid(self, index: int) -> OccupancyGrid:
