@@ -245,8 +245,8 @@ class CountMap:
         self.submaps: list[SubmapEchoes] = []
         #: Each tile's counts ``(TILE, TILE, OCC | FREE)``, in the pool's slot that ``slots`` gives a
         #: tile of the box (-1: no beam touched it); the slots of tiles emptied are used again.
-        self._pools = MappedPools(self)  # the pool grows in place, new slots zero until written
-        self._pools.zeros("pool", (0, TILE, TILE, 2), np.int32)
+        self._pools = MappedPools()  # the pool grows in place, new slots zero until written
+        self.pool = self._pools.zeros("pool", (0, TILE, TILE, 2), np.int32)
         self.slots = np.full((0, 0), -1, np.int32)
         self._free: list[int] = []
         self.corner = np.zeros(2, np.int64)  # the absolute cell (ix, iy) of the box's first (a tile's)
@@ -310,7 +310,7 @@ class CountMap:
         fresh = len(tiles) - len(self._free)
         if fresh > 0:
             size = len(self.pool)
-            self._pools.grow("pool", max(size + fresh, size * 3 // 2))
+            self._pools.grow(self, "pool", max(size + fresh, size * 3 // 2))
             self._free.extend(range(size, len(self.pool)))
         for ty, tx in tiles:
             self.slots[ty, tx] = self._free.pop()

@@ -14,28 +14,28 @@ import numpy as np
 
 
 class MappedPools:
-    """The mapped pools of ``owner``, each an attribute of it by name. Only ``owner`` may refer to
-    a pool for :meth:`grow` to remap it; a pool that has another view (or a system without
-    ``mremap``) is copied into a new mapping instead."""
+    """The mappings of an owner's pools, each pool an attribute of the owner by name. Only the owner
+    may refer to a pool for :meth:`grow` to remap it; a pool that has another view (or a system
+    without ``mremap``) is copied into a new mapping instead. The owner passes itself to
+    :meth:`grow` (kept here, it would make a reference cycle: pools freed only by the collector)."""
 
-    def __init__(self, owner: object):
-        self._owner = owner
+    def __init__(self):
         self._memory: dict[str, mmap.mmap] = {}
 
     def __contains__(self, name: str) -> bool:
         return name in self._memory
 
-    def zeros(self, name: str, shape: tuple[int, ...], dtype) -> None:
-        """Make ``owner.<name>`` a zeroed array of ``shape``, in a mapping of its own."""
+    def zeros(self, name: str, shape: tuple[int, ...], dtype) -> np.ndarray:
+        """A zeroed array of ``shape`` in a mapping of its own, for the owner's pool ``name``."""
         dtype = np.dtype(dtype)
         count = int(np.prod(shape))
         memory = mmap.mmap(-1, max(count * dtype.itemsize, 1), flags=mmap.MAP_PRIVATE)
         self._memory[name] = memory
-        setattr(self._owner, name, np.frombuffer(memory, dtype, count).reshape(shape))
+        return np.frombuffer(memory, dtype, count).reshape(shape)
 
-    def grow(self, name: str, length: int) -> None:
+    def grow(self, owner: object, name: str, length: int) -> None:
         """Give ``owner.<name>`` ``length`` rows, the new ones zero."""
-        array = self._owner.__dict__.pop(name)  # so that only this refers to it
+        array = owner.__dict__.pop(name)  # so that only this refers to it
         dtype, rows, shape = array.dtype, array.shape, (length, *array.shape[1:])
         count = int(np.prod(shape))
         memory = self._memory[name]
@@ -44,7 +44,8 @@ class MappedPools:
             memory.resize(max(count * dtype.itemsize, 1))
         except (BufferError, SystemError):  # another view of it; or no mremap (not Linux)
             old = np.frombuffer(memory, dtype, int(np.prod(rows))).reshape(rows)
-            self.zeros(name, shape, dtype)
-            getattr(self._owner, name)[:len(old)] = old
-            return
-        setattr(self._owner, name, np.frombuffer(memory, dtype, count).reshape(shape))
+            grown = self.zeros(name, shape, dtype)
+            grown[:len(old)] = old
+        else:
+            grown = np.frombuffer(memory, dtype, count).reshape(shape)
+        setattr(owner, name, grown)

@@ -388,13 +388,13 @@ class TiledMaps:
                  capacity: int = 16384):
         self.resolution = float(resolution)
         self.model = model or SensorModel()
-        self._pools = MappedPools(self)  # the large pools, grown in place
-        self._pools.zeros("lo", (capacity, TILE, TILE), np.float32)
+        self._pools = MappedPools()  # the large pools, grown in place
+        self.lo = self._pools.zeros("lo", (capacity, TILE, TILE), np.float32)
         self.refs = np.zeros(capacity, np.int32)
         self.hit_of = np.full((capacity, PARTS), -1, np.int32)
         self.free_stack = np.arange(capacity - 1, -1, -1, dtype=np.int32)
         self.free_top = np.array([capacity], np.int64)
-        self._pools.zeros("hit_blocks", (capacity, PART, PART, 3), np.float32)
+        self.hit_blocks = self._pools.zeros("hit_blocks", (capacity, PART, PART, 3), np.float32)
         self.hit_free_stack = np.arange(capacity - 1, -1, -1, dtype=np.int32)
         self.hit_free_top = np.array([capacity], np.int64)
         self.tables = np.full((n_maps, 0, 0), -1, np.int32)
@@ -537,7 +537,7 @@ class TiledMaps:
         blocks are mapped pools (:mod:`slam_core.mapped_pools`): their new rows take no memory
         until written (a resized array's new rows are zeroed, and so held, at once)."""
         if name in self._pools:
-            self._pools.grow(name, length)
+            self._pools.grow(self, name, length)
             return
         array = self.__dict__.pop(name)  # so that this is its only reference
         shape = (length, *array.shape[1:])
