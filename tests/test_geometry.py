@@ -109,6 +109,21 @@ def test_vectorised_equals_per_pose_loop(a, b):
     assert np.array_equal(compose(a[0], b), np.array([compose(a[0], q) for q in b]))
 
 
+@given(poses, poses)
+def test_one_pose_equals_a_stack_of_one_to_the_bit(a, b):
+    """One pose (array, list or tuple) takes a path of its own: the same floats as the array path."""
+    assert np.array_equal(compose(list(a), tuple(b)), compose(a[None], b[None])[0])
+    assert np.array_equal(inverse(tuple(a)), inverse(a[None])[0])
+    assert np.array_equal(relative(a, list(b)), relative(a[None], b[None])[0])
+
+
+def test_one_pose_not_finite_goes_the_array_way():
+    with np.errstate(invalid="ignore"):
+        assert np.all(np.isnan(compose([0.0, 0.0, math.inf], [1.0, 0.0, 0.0])))
+        assert np.all(np.isnan(inverse(np.array([0.0, 0.0, math.nan]))[:2]))
+    assert np.array_equal(relative([1, 2, 3], [[1, 2, 3], [0, 0, 0]]).shape, (2, 3))
+
+
 @settings(deadline=None)  # timing is for benchmarks/, not tests
 @given(poses, arrays(float, (5, 2), elements=st.floats(-50, 50)))
 def test_transform_points_matches_compose(pose, pts):
