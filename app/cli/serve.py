@@ -53,15 +53,16 @@ def _speed(text: str) -> float | str:
 
 
 def _replay_overrides(args: argparse.Namespace) -> dict:
-    """Settings of a replay; the log is read once here so that a broken one is refused before serving."""
-    from app.replay.log_feed import read_laser_records
+    """Settings of a replay; the log is read through once here (not kept) so that a broken one is
+    refused before serving."""
+    from app.replay.log_feed import check_laser_log
     from slam_core.datasets import resolve_log
 
     if args.replay is None:
         if args.speed is not None or args.exit_at_end:
             raise ValueError("--speed and --exit-at-end go with --replay LOG")
         return {}
-    read_laser_records(resolve_log(args.replay))
+    check_laser_log(resolve_log(args.replay))
     speed = {None: 1.0, "max": None}.get(args.speed, args.speed)
     return {"replay": args.replay, "replay_speed": speed, "replay_exit_at_end": args.exit_at_end}
 

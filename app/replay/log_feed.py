@@ -38,15 +38,27 @@ class LoggedOdometry:
 def read_laser_records(path: Path) -> tuple[list[LaserRecord], list[str]]:
     """Every laser record of a log and the warnings (a truncated end is one, unless it left no record)."""
     records: list[LaserRecord] = []
+    return records, _read(path, records.append)
+
+
+def check_laser_log(path: Path) -> list[str]:
+    """What :func:`read_laser_records` warns of, or its error, without keeping the records."""
+    return _read(path, lambda record: None)
+
+
+def _read(path: Path, keep) -> list[str]:
+    count = 0
     try:
-        records.extend(laser_records(path))
+        for record in laser_records(path):
+            keep(record)
+            count += 1
     except TruncatedLogError as exc:
-        if not records:
+        if not count:
             raise ValueError(f"{exc}; no laser records before it") from None
-        return records, [str(exc)]
-    if not records:
+        return [str(exc)]
+    if not count:
         raise ValueError(f"{path}: no laser records")
-    return records, []
+    return []
 
 
 def replay_name(log: str) -> str:
