@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -46,7 +47,8 @@ def check_laser_log(path: Path) -> list[str]:
     return _read(path, lambda record: None)
 
 
-def _read(path: Path, keep) -> list[str]:
+def _read(path: Path, keep: Callable[[LaserRecord], None]) -> list[str]:
+    """Give every laser record to ``keep``; the warnings, or the error of a log without records."""
     count = 0
     try:
         for record in laser_records(path):
