@@ -117,7 +117,7 @@ def test_one_pose_equals_a_stack_of_one_to_the_bit(a, b):
     assert np.array_equal(relative(a, list(b)), relative(a[None], b[None])[0])
 
 
-def test_one_pose_not_finite_goes_the_array_way():
+def test_stacks_and_poses_not_finite_go_the_array_way():
     with np.errstate(invalid="ignore"):
         assert np.all(np.isnan(compose([0.0, 0.0, math.inf], [1.0, 0.0, 0.0])))
         assert np.all(np.isnan(inverse(np.array([0.0, 0.0, math.nan]))[:2]))
