@@ -25,7 +25,9 @@ def _one_pose(a) -> tuple[float, float, float] | None:
     """``a``'s components as floats when it is one finite pose, else ``None`` (the array path).
 
     The filter and the back end move single poses per scan, where numpy's per-call overhead
-    costs ten times the arithmetic; ``math`` gives the same floats as numpy does for them."""
+    costs ten times the arithmetic; ``math`` gives the same floats as numpy does for them. (The
+    compiled :func:`compose_scalar` and :func:`wrap_scalar` give them too, as fast, but calling one
+    from Python starts numba's JIT, 0.3 s, in a process such as the server's that runs no kernel.)"""
     if isinstance(a, np.ndarray):
         if a.shape != (3,):
             return None
