@@ -27,7 +27,7 @@ def _one_pose(a) -> tuple[float, float, float] | None:
     The filter and the back end move single poses per scan, where numpy's per-call overhead
     costs ten times the arithmetic; ``math`` gives the same floats as numpy does for them. (The
     compiled :func:`compose_scalar` and :func:`wrap_scalar` give them too, as fast, but calling one
-    from Python starts numba's JIT, 0.3 s, in a process such as the server's that runs no kernel.)"""
+    from Python starts numba's JIT, 0.2-0.3 s, in a process that ran no kernel yet: the server's.)"""
     if isinstance(a, np.ndarray):
         if a.shape != (3,):
             return None
