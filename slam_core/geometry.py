@@ -58,8 +58,9 @@ def _inverse_floats(a: tuple[float, float, float]) -> tuple[float, float, float]
 
 def compose(a, b):
     """Return ``a ⊕ b`` for poses (or stacks of poses) ``a`` and ``b``."""
-    one_a, one_b = _one_pose(a), _one_pose(b)
-    if one_a is not None and one_b is not None:
+    one_a = _one_pose(a)
+    one_b = None if one_a is None else _one_pose(b)  # a stack for a: b is not looked at
+    if one_b is not None:
         return _compose_floats(one_a, one_b)
     a = np.asarray(a, dtype=float)
     b = np.asarray(b, dtype=float)
@@ -83,8 +84,9 @@ def inverse(a):
 
 def relative(a, b):
     """Return ``a⁻¹ ⊕ b``: pose ``b`` expressed in the frame of pose ``a``."""
-    one_a, one_b = _one_pose(a), _one_pose(b)
-    if one_a is not None and one_b is not None:
+    one_a = _one_pose(a)
+    one_b = None if one_a is None else _one_pose(b)  # a stack for a: b is not looked at
+    if one_b is not None:
         return _compose_floats(_inverse_floats(one_a), one_b)
     return compose(inverse(a), b)
 
