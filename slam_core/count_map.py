@@ -334,11 +334,37 @@ class CountMap:
     def grid(self, extent: tuple[float, float, float, float] | None = None) -> OccupancyGrid:
         """A fresh grid of the map, over its cells and (when given) the box ``extent`` too
         (``(xmin, ymin, xmax, ymax)``, a grid's :meth:`~slam_core.occupancy_grid.OccupancyGrid.extent`)."""
-        grid, cells = _grid_over(self.resolution, self.model, self.corner, self.shape, extent)
-        if cells.size:  # the cells of no tile have no counts: log-odds 0, as the grid starts
-            m = self.model
-            _tiled_log_odds(self.pool, self.slots, cells, m.l_occ, m.l_free, m.l_min, m.l_max)
+        grid = self.blank(extent)
+        self.draw(grid)
         return grid
+
+    def blank(self, extent: tuple[float, float, float, float] | None = None) -> OccupancyGrid:
+        """The grid :meth:`grid` gives, every cell still unknown: its box, for :meth:`hit_sums`, before
+        :meth:`draw` fills it (a fresh grid's cells take memory only when first written)."""
+        grid = OccupancyGrid(self.resolution, model=self.model)
+        ny, nx = self.shape
+        centres = []  # (xmin, ymin, xmax, ymax) of the cell centres to cover
+        if nx and ny:
+            centres.append(np.concatenate([self.corner + 0.5, self.corner + np.array([nx, ny]) - 0.5])
+                           * self.resolution)
+        if extent is not None:
+            centres.append(np.array(extent) + 0.5 * self.resolution * np.array([1, 1, -1, -1]))
+        if centres:
+            box = np.array(centres)
+            grid.ensure_contains(*box[:, :2].min(axis=0), *box[:, 2:].max(axis=0))
+        return grid
+
+    def draw(self, grid: OccupancyGrid) -> None:
+        """Write the map's log-odds into ``grid``, a :meth:`blank` of this map as it is now."""
+        ny, nx = self.shape
+        if not (nx and ny):
+            return
+        x, y = self.corner - np.round(grid.origin / self.resolution).astype(np.int64)
+        cells = grid.data[max(y, 0):y + ny, max(x, 0):x + nx]
+        if min(x, y) < 0 or cells.shape != (ny, nx):
+            raise ValueError("the grid does not cover the map")
+        m = self.model  # the cells of no tile have no counts: log-odds 0, as the grid starts
+        _tiled_log_odds(self.pool, self.slots, cells, m.l_occ, m.l_free, m.l_min, m.l_max)
 
     def hit_sums(self, grid: OccupancyGrid) -> SparseHits:
         """Every submap's hit sums on ``grid``'s cells (a grid of :meth:`grid`)."""
@@ -351,22 +377,3 @@ class CountMap:
             raise ValueError("the grid does not hold every echo of the map")
         # each submap's sums are from its own cell corners, on the same lattice as the grid's
         return SparseHits.summed(grid.origin, grid.shape, cells[:, 1] * nx + cells[:, 0], values)
-
-
-def _grid_over(resolution: float, model: SensorModel, corner: np.ndarray, shape: tuple[int, int],
-               extent: tuple[float, float, float, float] | None = None) -> tuple[OccupancyGrid, np.ndarray]:
-    """A fresh grid over the ``shape`` (ny, nx) cells from the absolute cell ``corner`` and (when
-    given) the box ``extent``, and the view of its data on those cells."""
-    grid = OccupancyGrid(resolution, model=model)
-    ny, nx = shape
-    centres = []  # (xmin, ymin, xmax, ymax) of the cell centres to cover
-    if nx and ny:
-        centres.append(np.concatenate([corner + 0.5, corner + np.array([nx, ny]) - 0.5]) * resolution)
-    if extent is not None:
-        centres.append(np.array(extent) + 0.5 * resolution * np.array([1, 1, -1, -1]))
-    if centres:
-        box = np.array(centres)
-        grid.ensure_contains(*box[:, :2].min(axis=0), *box[:, 2:].max(axis=0))
-    x, y = corner - np.round(grid.origin / resolution).astype(np.int64)
-    return grid, grid.data[y:y + ny, x:x + nx] if nx and ny else np.zeros((0, 0))
-

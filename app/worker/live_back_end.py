@@ -83,6 +83,7 @@ class LiveBackEnd:
         self.solves = 0
         self._thread: threading.Thread | None = None
         self._done: BackEndResult | None = None
+        self._blank: OccupancyGrid | None = None  # the last solve's grid, until drawn (_draw)
         self._failure: str | None = None  # why the last solve raised, until taken
         self._lock = threading.Lock()
         self._memory: LoopMemory | None = None  # the last solve's (read and written by solves only)
@@ -110,6 +111,7 @@ class LiveBackEnd:
         self.scans.append(scan)
         if len(self.scans) % self.config.loop_closure.submap_updates or self.busy:
             return
+        self._draw()  # the next solve changes the map a solve not taken yet is drawn from
         best, scans = best_updates(slam), list(self.scans)
         poses, odometry = best.poses, self._odometry(best)
         if self.prior is not None:
@@ -164,18 +166,34 @@ class LiveBackEnd:
         if memory is None:
             self._full_at = len(poses)
         traced = self._map.update(self.mount.laser_poses(closed.poses), scans)
-        grid = self._map.grid(extent)
+        grid = self._map.blank(extent)
         result = BackEndResult(closed.poses, poses, closed.loop_edges, grid, time.perf_counter() - started,
                                self._map.hit_sums(grid), traced)
         with self._lock:
-            self._done = result
+            self._done, self._blank = result, grid
             self.solves += 1
 
+    @property
+    def finished(self) -> bool:
+        """Whether a finished solve waits to be taken."""
+        with self._lock:
+            return self._done is not None
+
     def take(self) -> BackEndResult | None:
-        """The newest finished solve not taken yet."""
+        """The newest finished solve not taken yet, its map drawn now (in the taker's thread)."""
         with self._lock:
             result, self._done = self._done, None
+        if result is not None:
+            self._draw()
         return result
+
+    def _draw(self) -> None:
+        """Draw the last solve's map into its grid. A solve leaves its grid blank, so that the worker can
+        let the published map go first and hold one whole map, not two; only the worker's thread
+        draws, with no solve running (the map is the solve's)."""
+        if self._blank is not None:
+            self._map.draw(self._blank)
+            self._blank = None
 
     def failure(self) -> str | None:
         """Why the last solve failed, if it did and this was not asked since."""

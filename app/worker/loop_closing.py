@@ -70,15 +70,18 @@ class LoopClosing:
         """Use a finished solve: its correction, and its map with the updates since drawn in.
         Returns the jump ``[dx, dy, dyaw]`` of the filter's ``pose`` as published (corrected) when
         the solve closed a loop: the correction turns, so the jump depends on where it is measured."""
-        result = self.back_end.take() if self.back_end is not None else None
-        if result is None:
+        if self.back_end is None or not self.back_end.finished:
             return None
+        before = self.map_pose(pose)
+        # the last solve and its map (the published one) go before this solve's map is drawn:
+        # one whole map held at a time
+        self.solved = self.published_grid = None
+        result = self.back_end.take()
         best = best_updates(estimator).poses
         jump = None
         if result.loop_edges > self.edges_seen:
             self.edges_seen = result.loop_edges
             self.closures += 1
-            before = pose if self.solved is None else compose(self.solved.correction, pose)
             jump = compose(result.correction, pose) - before
             jump[2] = wrap_angle(jump[2])
         self.solved = result
