@@ -155,6 +155,20 @@ def test_the_grid_covers_a_box_and_the_map_keeps_its_cells():
     np.testing.assert_array_equal(mine, theirs)
 
 
+def test_a_blank_grid_is_drawn_as_the_map_was_and_not_once_the_map_outgrew_it():
+    poses, scans = updates(2, 8)
+    counts = CountMap(RES, MODEL, SIZE)
+    counts.update(poses[:SIZE], scans[:SIZE])
+    blank = counts.blank()
+    assert blank.shape == counts.grid().shape and not blank.data.any()
+    counts.draw(blank)
+    np.testing.assert_array_equal(blank.data, counts.grid().data)
+    far = poses[SIZE:] + np.array([25.0, 0.0, 0.0])  # the next submap, 25 m east
+    counts.update(np.vstack([poses[:SIZE], far]), scans)
+    with pytest.raises(ValueError, match="does not cover"):
+        counts.draw(blank)
+
+
 def test_bad_input_is_refused():
     poses, scans = updates(1, 9)
     counts = CountMap(RES, MODEL, SIZE)

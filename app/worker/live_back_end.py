@@ -1,17 +1,16 @@
 """The loop-closing back end, live: ``homebot slam``'s pose graph run beside the filter.
 
-Each time the filter completes a submap (``submap_updates`` updates) and no solve is
-running, the best particle's poses at its updates are taken (in the worker's thread, so
-they are consistent) and a background thread closes their loops
-(:func:`slam_core.graph.loop_closure.close_loops`) and renders the map from the
-optimised poses; the filter never waits for it. The worker takes the finished
-:class:`BackEndResult` when it is ready: its :attr:`~BackEndResult.correction` moves the
-filter's frame onto the optimised one (the ``map -> odom`` correction of REP-105, here
-``map -> filter``); the published pose is that correction composed with the filter's
-pose, and the published map is the optimised one with the updates since drawn in at
-corrected poses. Each solve also gives the map's hit sums (:mod:`slam_core.rbpf.hit_render`,
-in its thread), so that a checkpoint of the optimised map resumes a filter that matches to the mean
-beam endpoints as its own map would.
+Each time the filter completes a submap (``submap_updates`` updates) and no solve is running, the
+best particle's poses at its updates are taken (in the worker's thread, so they are consistent) and
+a background thread closes their loops (:func:`slam_core.graph.loop_closure.close_loops`) and brings
+the map up to the optimised poses; the filter never waits for it. The worker takes the finished
+:class:`BackEndResult` when it is ready, and only then is its grid drawn (after the published grid
+it replaces is let go: one whole grid held, not two): its :attr:`~BackEndResult.correction` moves
+the filter's frame onto the optimised one (the ``map -> odom`` correction of REP-105, here ``map ->
+filter``); the published pose is that correction composed with the filter's pose, and the published
+map is the optimised one with the updates since drawn in at corrected poses. Each solve also gives
+the map's hit sums (:mod:`slam_core.rbpf.hit_render`, in its thread), so that a checkpoint of the
+optimised map resumes a filter that matches to the mean beam endpoints as its own map would.
 
 A back end may start from a saved mapping session (:mod:`slam_core.session`): its updates
 come first in every solve, so loops close against the old part, and :meth:`LiveBackEnd.session`
@@ -54,9 +53,10 @@ FULL_SOLVE_GROWTH = 2.0
 @dataclass(frozen=True)
 class BackEndResult:
     """One solve: the optimised (robot) pose of each of the first ``len(poses)`` updates (a prior
-    session's first), the poses it started from, the loop edges kept and the map rendered from the
-    optimised poses, with its hit sums (on the grid's cells as it was: the worker draws the updates
-    since into the grid and may grow it), and how many submaps this solve traced again."""
+    session's first), the poses it started from, the loop edges kept and the map of the optimised
+    poses (blank until :meth:`LiveBackEnd.take` draws it), with its hit sums (on the grid's cells as it
+    was: the worker draws the updates since into the grid and may grow it), and how many submaps this
+    solve traced again."""
 
     poses: np.ndarray
     filter_poses: np.ndarray
