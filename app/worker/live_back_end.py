@@ -6,8 +6,8 @@ a background thread closes their loops (:func:`slam_core.graph.loop_closure.clos
 the map up to the optimised poses; the filter never waits for it. The worker takes the finished
 :class:`BackEndResult` when it is ready, and only then is its grid drawn (after the published grid
 it replaces is let go: one whole grid held, not two): its :attr:`~BackEndResult.correction` moves
-the filter's frame onto the optimised one (the ``map -> odom`` correction of REP-105, here ``map ->
-filter``); the published pose is that correction composed with the filter's pose, and the published
+the filter's frame onto the optimised one (the ``map -> odom`` correction of REP-105, here
+``map -> filter``); the published pose is that correction composed with the filter's pose, and the published
 map is the optimised one with the updates since drawn in at corrected poses. Each solve also gives
 the map's hit sums (:mod:`slam_core.rbpf.hit_render`, in its thread), so that a checkpoint of the
 optimised map resumes a filter that matches to the mean beam endpoints as its own map would.
