@@ -16,7 +16,9 @@ DRIVE_TIMEOUT_S = 120.0
 STREAM_TIMEOUT_MS = 30_000
 KITCHEN, HALL = (3.2, 1.8), (1.0, 3.75)  # the flat world: the hall is where the robot starts
 #: The page's pose against the simulator's, sampled while driving (the page's pose is up to one
-#: stream period older than the true pose, 0.4 m/s x 1/15 s).
+#: stream period older than the true pose, 0.4 m/s x 1/15 s). The page is read just before and just
+#: after each status request, so that a request slow to be answered (a busy machine) does not count
+#: the robot's motion meanwhile: the status's true pose lies in time between the two reads.
 POSE_BOUND_M = 0.3
 
 
@@ -50,13 +52,15 @@ def test_a_saved_map_loaded_from_the_dashboard_keeps_the_robot_localized(page, h
 
     r = server.api("POST", "goal", json={"x": HALL[0], "y": HALL[1]})
     assert r.status_code == 202, r.text
-    gaps, pills = [], []
+    gaps, errors, pills = [], [], []
     deadline = time.monotonic() + DRIVE_TIMEOUT_S
     while time.monotonic() < deadline:
+        before = page.evaluate("() => window.homebot.state.pose")
         status = server.api("GET", "status").json()
-        shown = page.evaluate("() => window.homebot.state.pose")
+        after = page.evaluate("() => window.homebot.state.pose")
         true = status["true_pose"]
-        gaps.append(math.hypot(shown["x"] - true[0], shown["y"] - true[1]))
+        gaps.append(min(math.hypot(shown["x"] - true[0], shown["y"] - true[1]) for shown in (before, after)))
+        errors.append(math.hypot(status["pose"]["x"] - true[0], status["pose"]["y"] - true[1]))  # diagnosis
         pills.append(page.locator("#st-loc").inner_text())
         if status["nav"]["state"] != "driving":
             break
@@ -65,7 +69,8 @@ def test_a_saved_map_loaded_from_the_dashboard_keeps_the_robot_localized(page, h
     # the pill says what the worker says: localized nearly all the way (a doorway may cost a scan's fit)
     assert set(pills) <= {"localized", "not localized"}
     assert pills.count("localized") >= 0.9 * len(pills) and pills[-1] == "localized", pills
-    assert len(gaps) > 10 and max(gaps) < POSE_BOUND_M, (max(gaps), gaps[:5], status["events"])
+    worst = gaps.index(max(gaps))  # and the server's own pose then (the worker's last state: it may lag)
+    assert len(gaps) > 10 and gaps[worst] < POSE_BOUND_M, (gaps[worst], errors[worst], status["events"])
     assert math.hypot(true[0] - HALL[0], true[1] - HALL[1]) < 0.5
     page.screenshot(path=str(artifacts / "dashboard-localization.png"))
     assert page.js_errors == []
