@@ -360,11 +360,11 @@ class CountMap:
         if not (nx and ny):
             return
         x, y = self.corner - np.round(grid.origin / self.resolution).astype(np.int64)
-        cells = grid.data[max(y, 0):y + ny, max(x, 0):x + nx]
-        if min(x, y) < 0 or cells.shape != (ny, nx):
+        if x < 0 or y < 0 or x + nx > grid.shape[1] or y + ny > grid.shape[0]:
             raise ValueError("the grid does not cover the map")
         m = self.model  # the cells of no tile have no counts: log-odds 0, as the grid starts
-        _tiled_log_odds(self.pool, self.slots, cells, m.l_occ, m.l_free, m.l_min, m.l_max)
+        _tiled_log_odds(self.pool, self.slots, grid.data[y:y + ny, x:x + nx], m.l_occ, m.l_free, m.l_min,
+                        m.l_max)
 
     def hit_sums(self, grid: OccupancyGrid) -> SparseHits:
         """Every submap's hit sums on ``grid``'s cells (a grid of :meth:`grid`)."""
