@@ -3,13 +3,15 @@
 from __future__ import annotations
 
 import itertools
+import os
 import threading
 import time
 
 import numpy as np
 import pytest
+import serial
 
-from app.grabbers.odometry_grabber import OdometryGrabber
+from app.grabbers.odometry_grabber import DEFAULT_BAUDRATE, WRITE_TIMEOUT, OdometryGrabber, write_within
 from app.robot_link.protocol import wrap_i32
 from app.robot_link.virtual_mcu import LineFaults, VirtualMCU
 from slam_core.sensors.wheel_odometry import DiffDriveGeometry
@@ -270,3 +272,71 @@ def test_a_refused_command_does_not_kill_the_mcu():
         seq = grabber.odometry.get()[0]
         assert grabber.odometry.wait_newer(seq, WAIT) is not None  # still sending frames
     assert mcu.stats.tick_errors == 3
+
+
+def _hold_the_interpreter(stop: threading.Event, seconds: float, threads: int = 2) -> list[threading.Thread]:
+    """Threads that take turns holding the GIL in single C calls of at least ``seconds`` each until
+    ``stop`` (two of them: one is always waiting to take it when another thread lets it go)."""
+    n = 1_000_000
+    while True:
+        t = time.perf_counter()
+        sum(range(n))
+        if time.perf_counter() - t >= seconds:
+            break
+        n = int(1.3 * n)
+
+    def hold(holding: threading.Event):
+        holding.set()
+        while not stop.is_set():
+            sum(range(n))
+
+    started = []
+    for _ in range(threads):
+        holding = threading.Event()
+        started.append(threading.Thread(target=hold, args=(holding,), daemon=True))
+        started[-1].start()
+        holding.wait()
+    return started
+
+
+def test_commands_sent_while_other_threads_hold_the_interpreter_are_not_counted_failed(wheels):
+    # The sending thread lets the GIL go in its write and may get it back only after another
+    # thread's long call; the bytes went out all the same (pyserial's own write timeout counted
+    # such a command failed: 5-8 of 16 here).
+    sent = [(0.01 * k, -0.02 * k) for k in range(1, 13)]
+    with (
+        VirtualMCU(wheels, clock=wheels.clock) as mcu,
+        OdometryGrabber(mcu.path, geometry=GEOMETRY, max_wheel_speed=MAX_WHEEL_SPEED) as grabber,
+    ):
+        assert grabber.wait_connected(WAIT)
+        stop = threading.Event()
+        hogs = _hold_the_interpreter(stop, 1.2 * WRITE_TIMEOUT)
+        try:
+            taken = [time.sleep(0.01) or grabber.send_velocity(v, w) for v, w in sent]  # as the link's thread
+        finally:
+            stop.set()
+            for hog in hogs:
+                hog.join()
+        wait_until(lambda: len(wheels.commands) == len(sent), "every command to reach the wheels")
+        stats = grabber.stats()
+    assert taken == [True] * len(sent)
+    assert (stats.commands_sent, stats.commands_failed) == (len(sent), 0)
+    assert np.array(wheels.commands) == pytest.approx(np.array(sent), rel=1e-6)  # float32 on the wire
+    assert mcu.stats.commands_applied == len(sent)
+
+
+def test_a_port_that_takes_no_more_bytes_times_out_within_the_limit():
+    controller, device = os.openpty()  # nobody reads the controller side: its buffer fills
+    port = serial.Serial(os.ttyname(device), DEFAULT_BAUDRATE)
+    try:
+        chunk = bytes(range(256)) * 16
+        t = time.monotonic()
+        with pytest.raises(serial.SerialTimeoutException, match="bytes not taken"):
+            for _ in range(100_000):  # a pty buffers some kilobytes at most
+                t = time.monotonic()
+                write_within(port, chunk, WRITE_TIMEOUT)
+        assert WRITE_TIMEOUT <= time.monotonic() - t < WRITE_TIMEOUT + 2.0
+    finally:
+        port.close()
+        os.close(controller)
+        os.close(device)

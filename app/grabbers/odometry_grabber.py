@@ -13,6 +13,8 @@ continues from the last pose.
 from __future__ import annotations
 
 import logging
+import os
+import select
 import threading
 import time
 from collections import Counter
@@ -40,6 +42,26 @@ DEFAULT_BAUDRATE = 115200
 READ_TIMEOUT = 0.05  # s; also bounds how long stop() waits
 RECONNECT_DELAY = 0.2  # s between attempts to reopen a vanished device
 WRITE_TIMEOUT = 0.1  # s; a command that cannot be written by then is dropped and counted
+
+
+def write_within(port: serial.Serial, data: bytes, timeout: float) -> None:
+    """Write all of ``data`` to ``port``, waiting up to ``timeout`` (s) in all for it to take more when
+    its buffer is full; ``SerialTimeoutException`` only when part of ``data`` was not taken.
+
+    pyserial's own write timeout also runs out when the writing thread was merely held up after the
+    bytes had gone out (waiting for the GIL behind another thread's long call, or for a core on a
+    busy machine), and then reports a frame that was sent as failed."""
+    deadline = time.monotonic() + timeout
+    left = memoryview(data)
+    while left:
+        try:
+            left = left[os.write(port.fileno(), left):]  # the port is non-blocking
+            continue
+        except BlockingIOError:
+            pass
+        wait = deadline - time.monotonic()
+        if wait <= 0 or not select.select([], [port.fileno()], [], wait)[1]:
+            raise serial.SerialTimeoutException(f"write timeout: {len(left)} of {len(data)} bytes not taken")
 
 
 @dataclass(frozen=True)
@@ -148,7 +170,7 @@ class OdometryGrabber:
             ok = False
             if port is not None:
                 try:
-                    port.write(frame)
+                    write_within(port, frame, WRITE_TIMEOUT)
                     ok = True
                 except (serial.SerialException, OSError) as exc:
                     log.warning("odometry grabber: velocity command to %s failed: %s", self.port, exc)
@@ -181,9 +203,7 @@ class OdometryGrabber:
     # -- the thread ------------------------------------------------------------------------
     def _open(self) -> serial.Serial | None:
         try:
-            return serial.Serial(
-                self.port, self.baudrate, timeout=self._read_timeout, write_timeout=WRITE_TIMEOUT
-            )
+            return serial.Serial(self.port, self.baudrate, timeout=self._read_timeout)
         except (serial.SerialException, OSError, ValueError) as exc:
             if not self._counts["open_failures"]:
                 log.warning("odometry grabber: cannot open %s (%s); retrying", self.port, exc)
