@@ -12,7 +12,7 @@ class LoopClosureConfig:
     ``submap_updates``: consecutive filter updates rendered into one submap;
     ``min_loop_path``: path length that must separate an update from a submap
     before the two can close a loop; ``search_radius``: how near (by the current
-    estimate) a submap's anchor must be; ``linear_window`` / ``angular_window``:
+    estimate) one of a submap's updates must be; ``linear_window`` / ``angular_window``:
     the half-widths of the correlative search around the expected pose;
     ``candidates``: the nearest submaps tried per update; ``accept_fit``: the
     fraction of beams that must find a surface at the match;
@@ -45,7 +45,8 @@ class LoopClosureConfig:
     the match must explain ``wide_accept_fit`` of the beams; one that explains at least
     ``wide_confirm_fit`` is kept too if ``wide_confirmations`` of the four updates around
     it match the submap where it puts them (a narrow search that explains ``accept_fit``
-    within half the narrow window of there).
+    within half the narrow window of there). A narrow search is held to the same test where
+    ``window_sigmas`` of that drift reach beyond ``linear_window``.
 
     Where the filter's step and the wheel odometry's disagree by more than
     ``witness_tolerance``, the step's position variance gains the square of the excess

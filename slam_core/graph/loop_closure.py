@@ -10,13 +10,16 @@ trajectory at its filter updates and
    at the filter's poses, into a small map of their own (locally the filter is
    accurate, so a submap is rigid; it is anchored at its middle update);
 2. matches the scan of every update against the submaps the robot passed long
-   before (by path length) whose anchors lie near it: a correlative search over
+   before (by path length) that one of their updates lies near (a submap of sparse
+   scans spans tens of metres, its anchor far from its ends): a correlative search over
    a window wide enough for the drift (a best pose on the window's rim is a false
    peak and is dropped), then the filter's Gauss-Newton point-to-line matcher; a
    match that explains enough beams becomes a loop edge from the submap's anchor
    to that update, weighted with the matcher's information (a match of the wide
    search that explains fewer is kept if the updates around it match where it
-   puts them);
+   puts them; a narrow search where the chain may have drifted farther than its
+   window since the last loop edge must pass the wide search's test: a look-alike
+   place may lie within its reach);
 3. drops loop edges that imply a motion, against the edges of nearby updates into the
    same submap, that neither the filter nor the odometry saw
    (:mod:`slam_core.graph.edge_consistency`); optimises the pose graph of the loop edges
@@ -134,8 +137,8 @@ class LoopClosureResult:
 
 class Submap:
     """Scans of consecutive updates rendered at their poses into one small map, with the
-    likelihood field of the correlative search as far around its anchor as the endpoints
-    of a query near the anchor can land."""
+    likelihood field of the correlative search as far around its updates' poses as the endpoints
+    of a query near one of them can land."""
 
     def __init__(self, updates: np.ndarray, poses: np.ndarray, scans: list[Scan], resolution: float,
                  model: SensorModel, matcher: MatcherParams, params: np.ndarray, reach: float):
@@ -145,8 +148,9 @@ class Submap:
         for u in updates:
             self.maps.integrate(poses[u][None, :], scans[u])
         m = self.maps
-        half = int(np.ceil(reach / resolution))  # where the endpoints of a query can land
-        self._centre = np.floor((self.anchor_pose[:2] - m.origin) / resolution).astype(int)
+        lo, hi = poses[updates, :2].min(axis=0), poses[updates, :2].max(axis=0)
+        half = int(np.ceil((0.5 * np.max(hi - lo) + reach) / resolution))  # where a query's endpoints land
+        self._centre = np.floor((0.5 * (lo + hi) - m.origin) / resolution).astype(int)
         self._half = half
         self._field_args = (params[P_OCCUPIED], matcher.coarse_sigma, matcher.coarse_reach_cells)
         self.field_corner = m.origin + (self._centre - half) * resolution
@@ -170,6 +174,11 @@ class Submap:
             self._pyramid = field_pyramid(self.field, LEVELS)
         return self._pyramid
 
+    def release_pyramid(self) -> None:
+        """Let the pyramid go (``LEVELS + 1`` copies of the field; a search batch holds all of a
+        submap's queries, so the next one needing it is a later round)."""
+        self._pyramid = None
+
     def fine(self) -> tuple:
         m = self.maps
         return m.tables[0], m.lo, m.hits, m.origin[0], m.origin[1], m.resolution
@@ -188,6 +197,7 @@ class Submaps:
         size = config.submap_updates
         self.ranges = [np.arange(a, min(a + size, n)) for a in range(0, n, size)]
         self.anchors = np.array([r[len(r) // 2] for r in self.ranges], np.int64)
+        self.starts = np.array([r[0] for r in self.ranges], np.int64)
         self.ends = np.array([r[-1] for r in self.ranges], np.int64)
         reach = (config.search_radius + config.linear_window + matcher.coarse_range
                  + matcher.coarse_reach_cells * resolution)
@@ -212,6 +222,12 @@ class Submaps:
 
     def of_update(self, u: int) -> int:
         return int(np.searchsorted(self.ends, u))
+
+    def distances(self, subs: np.ndarray, estimate: np.ndarray, q: int) -> np.ndarray:
+        """How far (m) update ``q`` lies from the nearest update of each submap in ``subs``, by
+        ``estimate`` (the updates' poses)."""
+        d = np.hypot(estimate[:, 0] - estimate[q, 0], estimate[:, 1] - estimate[q, 1])
+        return np.minimum.reduceat(d, self.starts)[subs]
 
 
 def _match(sub: Submap, start: np.ndarray, beams: np.ndarray, points: np.ndarray,
@@ -322,21 +338,22 @@ def close_loops(poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig 
         return bool(np.hypot(now[0] - before[0], now[1] - before[1]) < resolution
                     and abs(now[2] - before[2]) < matcher.coarse_angular_step)
 
-    def try_submap(s: int, queries: list[tuple[int, float, float]], estimate: np.ndarray):
+    def try_submap(s: int, queries: list[tuple[int, float, float, bool]], estimate: np.ndarray):
         sub = submaps[s]
         found = []
-        for q, linear, angular in queries:
+        for q, linear, angular, strict in queries:
             beams, points = query_rows(q)
             if len(points) == 0:
                 continue
             hit = _match(sub, sub.in_frame(estimate[sub.anchor], estimate[q]), beams, points,
                          config, matcher, params, linear, angular)
             wide = linear > config.linear_window
-            if hit is not None and (hit[2] >= (config.wide_accept_fit if wide else config.accept_fit) or (
-                    wide and hit[2] >= config.wide_confirm_fit and confirmed(sub, q, hit[0], estimate))):
+            if hit is not None and (hit[2] >= (config.wide_accept_fit if strict else config.accept_fit) or (
+                    strict and hit[2] >= config.wide_confirm_fit and confirmed(sub, q, hit[0], estimate))):
                 found.append((q, relative(sub.anchor_pose, hit[0]), hit[1] * config.information_scale))
             elif not wide:
                 failed[(s, q)] = relative(estimate[sub.anchor], estimate[q])
+        sub.release_pyramid()
         return s, found
 
     def confirmed(sub: Submap, q: int, pose: np.ndarray, estimate: np.ndarray) -> bool:
@@ -355,7 +372,7 @@ def close_loops(poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig 
                           and abs(wrap_angle(hit[0][2] - start[2])) <= narrow[1] / 2)
         return agree >= config.wide_confirmations
 
-    def search_and_solve(pairs: dict[int, list[tuple[int, float, float]]], estimate: np.ndarray):
+    def search_and_solve(pairs: dict[int, list[tuple[int, float, float, bool]]], estimate: np.ndarray):
         if not pairs:
             return estimate
         result.candidates_tried += sum(len(v) for v in pairs.values())
@@ -386,11 +403,16 @@ def close_loops(poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig 
     if edges:
         estimate = solve(estimate)  # the searches start where the edges kept put the poses
     for _ in range(config.rounds):
-        pairs: dict[int, list[tuple[int, float, float]]] = {}
+        # (submap: [(update, linear window, angular window, whether only a wide search's fit will do)])
+        pairs: dict[int, list[tuple[int, float, float, bool]]] = {}
+        loops = np.array(list(edges), np.int64).reshape(-1, 2)
         for q in range(first, n):
-            for s in _candidates(q, estimate, path, submaps, config):
-                if (int(submaps.anchors[s]), q) not in edges and not failed_before(s, q, estimate):
-                    pairs.setdefault(s, []).append((q, *narrow))
+            near = [s for s in _candidates(q, estimate, path, submaps, config)
+                    if (int(submaps.anchors[s]), q) not in edges and not failed_before(s, q, estimate)]
+            if near:  # where the chain may have drifted beyond the window, a look-alike could be there
+                sxy = drift.since_loops(submaps.anchors[near], q, loops)
+                for s, strict in zip(near, config.window_sigmas * sxy > narrow[0], strict=True):
+                    pairs.setdefault(s, []).append((q, *narrow, bool(strict)))
         estimate = search_and_solve(pairs, estimate)
         linked = {q for _, q in edges}
         loops = np.array(list(edges), np.int64).reshape(-1, 2)
@@ -401,7 +423,7 @@ def close_loops(poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig 
             for s, linear, angular in _wide_candidates(q, estimate, path, submaps, drift, loops, config):
                 if (s, q) not in tried_wide:
                     tried_wide.add((s, q))
-                    pairs.setdefault(s, []).append((q, linear, angular))
+                    pairs.setdefault(s, []).append((q, linear, angular, True))
         estimate = search_and_solve(pairs, estimate)
     result.poses = mount.robot_poses(estimate)
     result.loop_edges = len(edges)
@@ -643,7 +665,7 @@ def _candidates(q: int, estimate: np.ndarray, path: np.ndarray, submaps: Submaps
     old = np.flatnonzero(path[q] - path[submaps.ends] >= config.min_loop_path)
     if len(old) == 0:
         return []
-    d = np.hypot(*(estimate[submaps.anchors[old], :2] - estimate[q, :2]).T)
+    d = submaps.distances(old, estimate, q)
     near = np.argsort(d)[:config.candidates]
     return [int(old[k]) for k in near if d[k] < config.search_radius]
 
