@@ -55,13 +55,15 @@ def write_within(port: serial.Serial, data: bytes, timeout: float) -> None:
     left = memoryview(data)
     while left:
         try:
-            left = left[os.write(port.fileno(), left):]  # the port is non-blocking
-            continue
+            sent = os.write(port.fileno(), left)  # the port is non-blocking
         except BlockingIOError:
-            pass
-        wait = deadline - time.monotonic()
-        if wait <= 0 or not select.select([], [port.fileno()], [], wait)[1]:
-            raise serial.SerialTimeoutException(f"write timeout: {len(left)} of {len(data)} bytes not taken")
+            sent = 0
+        left = left[sent:]
+        if left and not sent:  # the port's buffer is full: wait for room
+            wait = deadline - time.monotonic()
+            if wait <= 0 or not select.select([], [port.fileno()], [], wait)[1]:
+                raise serial.SerialTimeoutException(
+                    f"write timeout: {len(left)} of {len(data)} bytes not taken")
 
 
 @dataclass(frozen=True)

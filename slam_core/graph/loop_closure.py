@@ -327,6 +327,7 @@ def close_loops(poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig 
         return rows[q]
 
     failed: dict[tuple[int, int], np.ndarray] = {}  # (submap, update): where a narrow search found nothing
+    # the narrow test takes (a match held to the wide test while the drift was large may pass it later)
 
     def failed_before(s: int, q: int, estimate: np.ndarray) -> bool:
         """Whether a narrow search of update ``q`` in submap ``s`` found nothing from within a cell and
@@ -351,7 +352,7 @@ def close_loops(poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig 
             if hit is not None and (hit[2] >= (config.wide_accept_fit if strict else config.accept_fit) or (
                     strict and hit[2] >= config.wide_confirm_fit and confirmed(sub, q, hit[0], estimate))):
                 found.append((q, relative(sub.anchor_pose, hit[0]), hit[1] * config.information_scale))
-            elif not wide:
+            elif not wide and (hit is None or hit[2] < config.accept_fit):  # nothing a narrow test takes
                 failed[(s, q)] = relative(estimate[sub.anchor], estimate[q])
         sub.release_pyramid()
         return s, found
