@@ -16,6 +16,7 @@ from slam_core.graph.loop_closure import (
     _chain_information,
     _within_reach,
     close_loops,
+    loop_edge,
     robust_solve,
     scan_poses,
     steady_starts,
@@ -321,3 +322,40 @@ def test_a_warm_started_solve_reaches_the_cold_solves_optimum_in_fewer_steps(mon
     assert len(steps) < cold_steps, (len(steps), cold_steps)
     assert np.abs(warm[:, :2] - cold[:, :2]).max() < 1e-4
     assert np.abs(wrap_angle(warm[:, 2] - cold[:, 2])).max() < 1e-5
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.floats(-5.0, 5.0), min_size=6, max_size=6), st.floats(-np.pi, np.pi),
+       st.lists(st.floats(-0.3, 0.3), min_size=3, max_size=3), st.floats(0.0, np.pi),
+       st.floats(1.0, 1e4), st.floats(1.0, 1e4))
+def test_a_loop_edges_error_weighs_a_pose_off_its_match_as_the_matcher_does(xy, heading, off, axis, strong,
+                                                                              weak):
+    """The matcher's information is on the matched pose's position in the map's axes; the edge's
+    error is in the pose's own frame. An estimate off the match by ``off`` (map axes) costs the
+    edge exactly the matcher's ``off^T info off``, whatever the pose's heading (with the
+    information used unturned, a corridor's edge would pin the robot along the corridor)."""
+    anchor = np.array([xy[0], xy[1], xy[2]])
+    pose = np.array([xy[3], xy[4], heading])
+    c, s = np.cos(axis), np.sin(axis)
+    info = np.zeros((3, 3))
+    info[:2, :2] = np.array([[c, -s], [s, c]]) @ np.diag([strong, weak]) @ np.array([[c, s], [-s, c]])
+    info[2, 2] = 50.0
+    info[:2, 2] = info[2, :2] = 0.3 * np.sqrt(strong * 50.0) * np.array([c, s])
+    z, edge_info = loop_edge(anchor, pose, info)
+    graph = pose_graph.PoseGraph(np.array([anchor, pose + np.array(off)]))
+    graph.add_edge(0, 1, z, edge_info)
+    d = np.array(off)
+    assert graph.chi2()[0] == pytest.approx(d @ info @ d, rel=1e-9, abs=1e-9)
+
+
+def test_a_corridors_loop_edge_moves_the_robot_across_the_corridor_not_along_it():
+    """A loop edge from a match in a corridor running north (known across it, in x, not along
+    it): the solve takes the edge's x and leaves y to the chain."""
+    poses = np.array([[0.0, 0.0, np.pi / 2], [0.0, 1.0, np.pi / 2], [0.0, 2.0, np.pi / 2]])
+    chain = _chain_information(poses, CONFIG)
+    info = np.diag([1e6, 1e-2, 1e4])  # in the map's axes: across the corridor is x
+    z, edge_info = loop_edge(poses[0], np.array([0.3, 2.5, np.pi / 2]), info)
+    solved, dropped = robust_solve(poses, chain, {(0, 2): (z, edge_info)}, outlier_chi2=1e12)
+    assert not dropped
+    assert solved[2, 0] == pytest.approx(0.3, abs=0.01)
+    assert solved[2, 1] == pytest.approx(2.0, abs=0.01)

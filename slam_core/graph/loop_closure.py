@@ -351,7 +351,7 @@ def close_loops(poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig 
             wide = linear > config.linear_window
             if hit is not None and (hit[2] >= (config.wide_accept_fit if strict else config.accept_fit) or (
                     strict and hit[2] >= config.wide_confirm_fit and confirmed(sub, q, hit[0], estimate))):
-                found.append((q, relative(sub.anchor_pose, hit[0]), hit[1] * config.information_scale))
+                found.append((q, *loop_edge(sub.anchor_pose, hit[0], hit[1] * config.information_scale)))
             elif not wide and (hit is None or hit[2] < config.accept_fit):  # nothing a narrow test takes
                 failed[(s, q)] = relative(estimate[sub.anchor], estimate[q])
         sub.release_pyramid()
@@ -630,6 +630,16 @@ def _chain_information(poses: np.ndarray, config: LoopClosureConfig,
     info[:, 0, 0] = info[:, 1, 1] = 1.0 / vxy
     info[:, 2, 2] = 1.0 / vth
     return info
+
+
+def loop_edge(anchor: np.ndarray, pose: np.ndarray, information: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The edge ``(z, information)`` from ``anchor`` to a matched ``pose``, both in one map's
+    frame, whose ``information`` is the matcher's, on the pose's position in that frame's axes:
+    the pose graph's error is in the frame of the measured pose, so the position's block is
+    turned into it (a corridor's match knows across the corridor, whichever way it runs)."""
+    c, s = np.cos(pose[2]), np.sin(pose[2])
+    turn = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])  # the error's axes in the map's
+    return relative(anchor, pose), turn.T @ information @ turn
 
 
 def robust_solve(poses: np.ndarray, chain: np.ndarray, edges: dict, outlier_chi2: float,
