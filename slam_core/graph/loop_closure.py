@@ -15,7 +15,7 @@ trajectory at its filter updates and
    a window wide enough for the drift (a best pose on the window's rim is a false
    peak and is dropped), then the filter's Gauss-Newton point-to-line matcher; a
    match that explains enough beams becomes a loop edge from the submap's anchor
-   to that update, weighted with the matcher's information (a match of the wide
+   to that update, weighted with the matcher's information (:func:`loop_edge`; a match of the wide
    search that explains fewer is kept if the updates around it match where it
    puts them; a narrow search where the chain may have drifted farther than its
    window since the last loop edge must pass the wide search's test: a look-alike

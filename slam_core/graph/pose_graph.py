@@ -2,7 +2,8 @@
 
 Nodes are poses ``x_i``; an edge ``(i, j, z, Omega)`` says that pose ``j`` seen
 from pose ``i`` is ``z`` with information ``Omega``. The optimiser minimises
-``sum_k w_k e_k^T Omega_k e_k`` with ``e = t2v(z^-1 (x_i^-1 x_j))``, the
+``sum_k w_k e_k^T Omega_k e_k`` with ``e = t2v(z^-1 (x_i^-1 x_j))`` (in the frame of the
+measured pose ``x_i z``: ``Omega`` is on that frame's axes), the
 Jacobians of Grisetti et al., "A tutorial on graph-based SLAM" (2010), and node 0
 held fixed. Edges marked robust get Huber weights (iteratively reweighted), so
 that a false loop closure pulls with a bounded force instead of bending the map.
