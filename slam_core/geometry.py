@@ -91,6 +91,15 @@ def relative(a, b):
     return compose(inverse(a), b)
 
 
+def paced_pose(before, last, t_before: float, t_last: float, t_now: float) -> np.ndarray | None:
+    """Where a pose would be at ``t_now`` had it kept the pace from ``before`` (at ``t_before``) to
+    ``last`` (at ``t_last``): that step, scaled by the time since over its time, after ``last``; or
+    ``None`` unless the two are a positive time apart."""
+    if not t_last > t_before:
+        return None
+    return compose(last, relative(before, last) * ((t_now - t_last) / (t_last - t_before)))
+
+
 def transform_points(pose, points):
     """Move points of shape ``(n, 2)`` from the frame of ``pose`` to its parent frame."""
     pose = np.asarray(pose, dtype=float)

@@ -50,7 +50,7 @@ from functools import cached_property
 
 import numpy as np
 
-from slam_core.geometry import compose, relative, wrap_angle
+from slam_core.geometry import compose, paced_pose, relative, wrap_angle
 from slam_core.graph.config import LoopClosureConfig
 from slam_core.graph.edge_consistency import inconsistent_edges
 from slam_core.graph.odometry_witness import step_disagreement
@@ -496,7 +496,7 @@ def scan_poses(submaps: Submaps, update_poses: np.ndarray, update_of_scan: np.nd
             if best_fit + gain <= len(beams):  # which it cannot where the odometry's fits nearly all
                 paced = None
                 if k >= 2 and not first_of_update[k] and submap_of[k - 2] == s:
-                    paced = _paced_start(out, times, k)
+                    paced = paced_pose(out[k - 2], out[k - 1], *times[k - 2:k + 1])
                 paced = steady[k] if paced is None else paced
                 gap = relative(out[k], paced)
                 if np.hypot(gap[0], gap[1]) > PACE_GAP_XY or abs(gap[2]) > PACE_GAP_THETA:
@@ -509,15 +509,6 @@ def scan_poses(submaps: Submaps, update_poses: np.ndarray, update_of_scan: np.nd
     with ThreadPoolExecutor(os.cpu_count() or 1) as pool:
         list(pool.map(lambda item: refine(*item), sorted(by_submap.items())))
     return mount.robot_poses(out)
-
-
-def _paced_start(poses: np.ndarray, times: np.ndarray, k: int) -> np.ndarray | None:
-    """Where scan ``k`` would be had the robot kept the pace of the two scans before it (``poses``),
-    or ``None`` if those are not a positive time apart."""
-    if not times[k - 1] > times[k - 2]:
-        return None
-    pace = relative(poses[k - 2], poses[k - 1]) * ((times[k] - times[k - 1]) / (times[k - 1] - times[k - 2]))
-    return compose(poses[k - 1], pace)
 
 
 def steady_starts(update_poses: np.ndarray, update_of_scan: np.ndarray, times: np.ndarray) -> np.ndarray:

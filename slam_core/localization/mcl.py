@@ -392,7 +392,7 @@ class MonteCarloLocalizer:
         points = tracking_points(scan, cfg.laser_pose, cfg.tracking.beams, cfg.tracking.max_range)
         if t.tracking:
             was_confirmed, predicted, usual = t.confirmed, t.pose.copy(), t.usual_fit or 0.0
-            t.correct(points, cfg.laser_pose[:2])
+            t.correct(points, cfg.laser_pose[:2], scan.timestamp)
             if not t.tracking:  # lost (or carried off): the cloud's pose, or start over
                 found = self._converged() and t.try_start(self.main_cluster().pose, points)
                 if not found and (was_confirmed or self._switched):

@@ -21,6 +21,14 @@ does the former on every scan:
    over the steps that moved, rate ``speed_rate``; no robot doubles its speed within a scan):
    it holds all the motion since the stall began, which the matches have partly followed, so
    the prediction is the track's pose where the stall began moved by that motion;
+   odometry read a little early or late (mit-csail's turns: 23 deg in one scan, 4 in the next)
+   puts the prediction off the robot's own pace: after two accepted matches on consecutive scans,
+   a scan whose paced pose (their step, scaled by the time since) lies more than ``pace_gap_xy``
+   or ``pace_gap_theta`` from the prediction is matched from there too. Where the pace's matches
+   have explained more of the scans than the odometry's, on this robot so far, the pace's is taken
+   unless the odometry's explains ``pace_gain`` more of the beams; elsewhere the odometry's is
+   taken. Wheels read in step with the laser predict far better than the pace does (the stress
+   logs, intel: a pace that wins on a single scan's fit puts intel's track off), mit-csail's worse;
 2. *match*: :class:`ScanToMapMatcher` refines it against the map, held to the
    prediction by a prior whose spread grows with the odometry's motion since the
    last accepted match (a robot that stands still does not slide along a corridor), and
@@ -60,7 +68,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from slam_core.geometry import compose, relative
+from slam_core.geometry import compose, paced_pose, relative
 from slam_core.localization.known_map import KnownMap
 from slam_core.localization.scan_to_map import MatchResult, ScanToMapMatcher, prior_weights
 from slam_core.motion_model import OdometryMotionModel, decompose
@@ -104,6 +112,15 @@ class TrackingConfig:
     cruise: float = 0.75
     still_xy: float = 0.001
     still_theta: float = 0.002
+    #: The paced start (see the module doc): how far from the prediction (m, rad) it is matched too,
+    #: and the fraction of the beams more the odometry's must explain to win where the pace is
+    #: preferred: once it has been tried ``pace_samples`` times and its match's fit, less the
+    #: odometry's, is positive on average (a running mean of rate ``pace_rate``).
+    pace_gap_xy: float = 0.05
+    pace_gap_theta: float = 0.035
+    pace_gain: float = 0.05
+    pace_rate: float = 0.02
+    pace_samples: int = 20
     #: Rejected scans in a row after which the track is lost.
     patience: int = 5
     #: Occlusion: the least fit, the largest fraction of beams seen through a wall, and the odometry
@@ -188,6 +205,9 @@ class PoseTracker:
         self._raw_since = np.zeros(3)  # and the odometry's motion since, uncorrected (stalls bridged)
         # in a bridged stall: the pose and the raw motion since the anchor as if the robot stopped
         self._unbridged: tuple[np.ndarray, np.ndarray] | None = None
+        self._paced: list[tuple[np.ndarray, float]] = []  # the last two scans' accepted (pose, time)
+        self._pace_advantage = 0.0  # the pace's match's fit less the odometry's, where both were tried
+        self._pace_tries = 0
         self._unconfirmed_travel = 0.0  # odometry travel since an unconfirmed start
         self._unconfirmed_matches = 0  # and accepted matches
         self._confirm_fit = self.config.start_fit  # the usual fit an unconfirmed track must keep
@@ -287,9 +307,10 @@ class PoseTracker:
             self._cruising = moved >= max(cfg.stall_min_step, cfg.cruise * self._speed[0])
         return step
 
-    def correct(self, points: np.ndarray, laser_xy=(0.0, 0.0)) -> MatchResult | None:
+    def correct(self, points: np.ndarray, laser_xy=(0.0, 0.0),
+                stamp: float | None = None) -> MatchResult | None:
         """Match the predicted pose against the map (endpoints in the robot frame, laser at
-        ``laser_xy``); returns the match (None without a track)."""
+        ``laser_xy``, the scan taken at ``stamp`` seconds); returns the match (None without a track)."""
         if self.pose is None:
             return None
         cfg = self.config
@@ -305,6 +326,8 @@ class PoseTracker:
             if still.fit >= result.fit:
                 result, self.pose, self._raw_since = still, still_pose, still_since
             self._unbridged = None
+        elif stamp is not None and len(self._paced) == 2:
+            result = self._paced_match(result, points, prior, stamp)
         usual = result.fit if self.usual_fit is None else self.usual_fit
         needed = max(cfg.min_fit, cfg.keep_ratio * usual)
         if result.fit < max(needed, usual - cfg.search_on_drop):
@@ -320,12 +343,36 @@ class PoseTracker:
             self.usual_fit = usual + cfg.usual_rate * (result.fit - usual)
             self._moved[:] = 0.0
             self._unconfirmed_matches += 1
+            self._paced = [] if stamp is None else [*self._paced[-1:], (self.pose, stamp)]
         elif self._occluded(result.fit, points, laser_xy):
             self.occluded = True
         else:
             self.misses += 1
+        if result.fit < needed:
+            self._paced = []
         if self.misses >= cfg.patience or (not self.confirmed and self.usual_fit < self._confirm_fit):
             self.lose()
+        return result
+
+    def _paced_match(self, result: MatchResult, points: np.ndarray, prior, stamp: float) -> MatchResult:
+        """The match from the odometry's start (``result``) or from the robot's pace, whichever wins
+        (see the module doc)."""
+        cfg = self.config
+        (before, t_before), (last, t_last) = self._paced
+        paced = paced_pose(before, last, t_before, t_last, stamp)
+        if paced is None:
+            return result
+        gap = relative(self.pose, paced)
+        if np.hypot(gap[0], gap[1]) <= cfg.pace_gap_xy and abs(gap[2]) <= cfg.pace_gap_theta:
+            return result
+        other = self.matcher.match(paced, points, prior)
+        self._pace_tries += 1
+        self._pace_advantage += max(cfg.pace_rate, 1.0 / self._pace_tries) * (
+            other.fit - result.fit - self._pace_advantage)
+        preferred = self._pace_tries >= cfg.pace_samples and self._pace_advantage > 0.0
+        if preferred and result.fit < other.fit + cfg.pace_gain:
+            self.pose = paced
+            return other
         return result
 
     def _calibrate(self, result: MatchResult) -> None:
@@ -383,6 +430,7 @@ class PoseTracker:
             self._stall_start = (compose(result.pose, relative(self.pose, start)), start_odom)
         self.pose, self.fit, self.usual_fit, self.misses = result.pose, result.fit, usual, 0
         self._unbridged = None
+        self._paced = []
         self._anchor, self._raw_since = result.pose, np.zeros(3)
         self.occluded = False
         self._moved[:] = 0.0
@@ -395,6 +443,7 @@ class PoseTracker:
         """Track from ``pose`` as given (a known start)."""
         self.pose = np.array(pose, dtype=np.float64)
         self._unbridged = None
+        self._paced = []
         self.usual_fit = None
         self.misses = 0
         self.occluded = False
@@ -406,6 +455,7 @@ class PoseTracker:
     def lose(self) -> None:
         self.pose = None
         self._unbridged = None
+        self._paced = []
         self._anchor = None
         self._stall_start = None
         self.misses = 0
