@@ -23,7 +23,8 @@ they count as ``EFFECTIVE_BEAMS`` independent ones against it. Steps:
 It returns the pose and its *fit*: the fraction of the beams whose endpoint lies
 within ``FIT_DISTANCE + FIT_PER_METRE * range`` of a wall (far beams are allowed
 the error a small heading error gives them), the number the localizer uses to
-decide whether the map explains the scan.
+decide whether the map explains the scan; and its *spread*, the mean squared distance of the
+beams within ``CUTOFF_END`` of a wall, which tells apart two poses that explain as many beams.
 
 :func:`search` is the fallback when the start is too far off for Gauss-Newton
 (odometry that stalled, then caught up): an exhaustive correlative search
@@ -74,11 +75,14 @@ MAX_STEP_THETA = 0.2
 
 @dataclass(frozen=True)
 class MatchResult:
-    """The refined pose, the fraction of beams the map explains there, and how many beams were used."""
+    """The refined pose, the fraction of beams the map explains there, how many beams were used, and
+    the mean squared distance (m^2) to the map's walls of the beams within ``CUTOFF_END`` of them
+    (how closely they fit: of two matches that explain as many beams, the smaller fits better)."""
 
     pose: np.ndarray
     fit: float
     beams: int
+    spread: float = 0.0
 
 
 @njit
@@ -105,13 +109,15 @@ def field_at(distance, origin_x, origin_y, res, px, py):
 
 @njit
 def _normal_equations(distance, origin_x, origin_y, res, x, y, th, bx, by, cutoff, h, g):
-    """Fill ``h`` (3x3) and ``g`` (3) at the pose; returns (beams used, beams within FIT_DISTANCE)."""
+    """Fill ``h`` (3x3) and ``g`` (3) at the pose; returns (beams used, beams within FIT_DISTANCE,
+    the sum of the used beams' squared distances)."""
     h[:, :] = 0.0
     g[:] = 0.0
     c = np.cos(th)
     s = np.sin(th)
     used = 0
     close = 0
+    squares = 0.0
     for j in range(bx.shape[0]):
         ex = x + c * bx[j] - s * by[j]
         ey = y + s * bx[j] + c * by[j]
@@ -121,6 +127,7 @@ def _normal_equations(distance, origin_x, origin_y, res, x, y, th, bx, by, cutof
         if d < 0.0 or d >= cutoff:
             continue
         used += 1
+        squares += d * d
         j0 = dx
         j1 = dy
         j2 = -dx * (ey - y) + dy * (ex - x)
@@ -129,7 +136,7 @@ def _normal_equations(distance, origin_x, origin_y, res, x, y, th, bx, by, cutof
             g[a] += jac[a] * d
             for b in range(3):
                 h[a, b] += jac[a] * jac[b]
-    return used, close
+    return used, close, squares
 
 
 @njit
@@ -143,7 +150,7 @@ def _match(distance, origin_x, origin_y, res, x, y, th, bx, by, iterations, cuto
     for it in range(iterations):
         frac = it / max(iterations - 1, 1)
         cutoff = cutoff_start + (cutoff_end - cutoff_start) * frac
-        used, _ = _normal_equations(distance, origin_x, origin_y, res, x, y, th, bx, by, cutoff, h, g)
+        used, _, _ = _normal_equations(distance, origin_x, origin_y, res, x, y, th, bx, by, cutoff, h, g)
         if used < 3:
             break
         scale = used / EFFECTIVE_BEAMS
@@ -160,9 +167,9 @@ def _match(distance, origin_x, origin_y, res, x, y, th, bx, by, iterations, cuto
         x += step[0]
         y += step[1]
         th += step[2]
-    used, close = _normal_equations(distance, origin_x, origin_y, res, x, y, th, bx, by, cutoff_end,
-                                    h, g)
-    return x, y, th, close
+    used, close, squares = _normal_equations(distance, origin_x, origin_y, res, x, y, th, bx, by,
+                                             cutoff_end, h, g)
+    return x, y, th, close, squares / max(used, 1)
 
 
 @njit
@@ -249,12 +256,12 @@ class ScanToMapMatcher:
         if len(points) == 0:
             return MatchResult(pose.copy(), 0.0, 0)
         m = self.map
-        x, y, th, close = _match(self._distance, m.origin[0], m.origin[1], m.resolution,
+        x, y, th, close, spread = _match(self._distance, m.origin[0], m.origin[1], m.resolution,
                                  pose[0], pose[1], pose[2], np.ascontiguousarray(points[:, 0]),
                                  np.ascontiguousarray(points[:, 1]), iterations, CUTOFF_START,
                                  CUTOFF_END, float(prior[0]), float(prior[1]))
         refined = np.array([x, y, (th + np.pi) % (2 * np.pi) - np.pi])
-        return MatchResult(refined, close / len(points), len(points))
+        return MatchResult(refined, close / len(points), len(points), spread)
 
     def search(self, pose, points: np.ndarray, half_xy: float, half_theta: float,
                step_theta: float, prior=DEFAULT_PRIOR, cost: float = 0.0) -> MatchResult:

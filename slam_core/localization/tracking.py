@@ -25,8 +25,9 @@ does the former on every scan:
    puts the prediction off the robot's own pace: after two accepted matches on consecutive scans,
    a scan whose paced pose (their step, scaled by the time since) lies more than ``pace_gap_xy``
    or ``pace_gap_theta`` from the prediction is matched from there too. Where the pace's matches
-   have explained more of the scans than the odometry's, on this robot so far, the pace's is taken
-   unless the odometry's explains ``pace_gain`` more of the beams; elsewhere the odometry's is
+   have explained more of the scans than the odometry's, on this robot so far, the match that
+   explains ``pace_gain`` more of the beams is taken, and between two that explain about as many
+   the one whose beams lie closer to the walls (the smaller spread); elsewhere the odometry's is
    taken. Wheels read in step with the laser predict far better than the pace does (the stress
    logs, intel: a pace that wins on a single scan's fit puts intel's track off), mit-csail's worse;
 2. *match*: :class:`ScanToMapMatcher` refines it against the map, held to the
@@ -113,8 +114,8 @@ class TrackingConfig:
     still_xy: float = 0.001
     still_theta: float = 0.002
     #: The paced start (see the module doc): how far from the prediction (m, rad) it is matched too,
-    #: and the fraction of the beams more the odometry's must explain to win where the pace is
-    #: preferred: once it has been tried ``pace_samples`` times and its match's fit, less the
+    #: and the fraction of the beams by which one match outweighs the other's spread where the pace
+    #: is preferred: once it has been tried ``pace_samples`` times and its match's fit, less the
     #: odometry's, is positive on average (a running mean of rate ``pace_rate``).
     pace_gap_xy: float = 0.05
     pace_gap_theta: float = 0.035
@@ -370,7 +371,8 @@ class PoseTracker:
         self._pace_advantage += max(cfg.pace_rate, 1.0 / self._pace_tries) * (
             other.fit - result.fit - self._pace_advantage)
         preferred = self._pace_tries >= cfg.pace_samples and self._pace_advantage > 0.0
-        if preferred and result.fit < other.fit + cfg.pace_gain:
+        if preferred and (result.fit < other.fit - cfg.pace_gain or (
+                result.fit < other.fit + cfg.pace_gain and other.spread <= result.spread)):
             self.pose = paced
             return other
         return result
