@@ -52,3 +52,10 @@ def test_a_turned_pose_that_explains_as_many_beams_spreads_more(seed):
         turned = matcher.match(pose + np.array([0.0, 0.0, np.radians(1.0)]), points, HELD)
         assert turned.fit >= right.fit - 0.02  # the fit cannot tell them apart (1.0 and 1.0 measured)
         assert turned.spread > 2.0 * right.spread, (pose, right, turned)  # measured 6-11 times
+
+
+def test_a_match_with_no_beam_near_a_wall_has_no_spread():
+    _, matcher = room_and_matcher(np.random.default_rng(3))
+    far = np.array([[100.0, 0.0], [0.0, 100.0], [-100.0, 0.0]])  # endpoints beyond the map
+    assert matcher.match(np.zeros(3), far, HELD).spread == np.inf
+    assert matcher.match(np.zeros(3), np.zeros((0, 2)), HELD).spread == np.inf

@@ -77,12 +77,13 @@ MAX_STEP_THETA = 0.2
 class MatchResult:
     """The refined pose, the fraction of beams the map explains there, how many beams were used, and
     the mean squared distance (m^2) to the map's walls of the beams within ``CUTOFF_END`` of them
-    (how closely they fit: of two matches that explain as many beams, the smaller fits better)."""
+    (how closely they fit: of two matches that explain as many beams, the smaller fits better;
+    infinite when no beam is that near)."""
 
     pose: np.ndarray
     fit: float
     beams: int
-    spread: float = 0.0
+    spread: float = np.inf
 
 
 @njit
@@ -169,7 +170,7 @@ def _match(distance, origin_x, origin_y, res, x, y, th, bx, by, iterations, cuto
         th += step[2]
     used, close, squares = _normal_equations(distance, origin_x, origin_y, res, x, y, th, bx, by,
                                              cutoff_end, h, g)
-    return x, y, th, close, squares / max(used, 1)
+    return x, y, th, close, squares / used if used else np.inf
 
 
 @njit
@@ -257,9 +258,9 @@ class ScanToMapMatcher:
             return MatchResult(pose.copy(), 0.0, 0)
         m = self.map
         x, y, th, close, spread = _match(self._distance, m.origin[0], m.origin[1], m.resolution,
-                                 pose[0], pose[1], pose[2], np.ascontiguousarray(points[:, 0]),
-                                 np.ascontiguousarray(points[:, 1]), iterations, CUTOFF_START,
-                                 CUTOFF_END, float(prior[0]), float(prior[1]))
+                                         pose[0], pose[1], pose[2], np.ascontiguousarray(points[:, 0]),
+                                         np.ascontiguousarray(points[:, 1]), iterations, CUTOFF_START,
+                                         CUTOFF_END, float(prior[0]), float(prior[1]))
         refined = np.array([x, y, (th + np.pi) % (2 * np.pi) - np.pi])
         return MatchResult(refined, close / len(points), len(points), spread)
 
