@@ -32,8 +32,8 @@ def capture(log: str, every: int, copies: int) -> list[dict]:
     taken: list[dict] = []
     calls = [0]
 
-    def spy(tables, lo, hits, origin_x, origin_y, resolution, prev, starts, motion, alphas, fallback_motion,
-            fallback_alphas, beams, params, iterations, wide_iterations, *rest):
+    def spy(tables, lo, hits, origin_x, origin_y, resolution, prev, starts, motion, alphas, beams, params,
+            iterations, wide_iterations, *rest):
         calls[0] += 1
         if calls[0] % every == 0:
             taken.append({"map": copy.deepcopy((tables, lo, hits, origin_x, origin_y, resolution)),
@@ -41,8 +41,8 @@ def capture(log: str, every: int, copies: int) -> list[dict]:
                           "iterations": iterations, "wide_iterations": wide_iterations})
             if len(taken) == copies:
                 raise _Enough
-        return proposal(tables, lo, hits, origin_x, origin_y, resolution, prev, starts, motion, alphas,
-                        fallback_motion, fallback_alphas, beams, params, iterations, wide_iterations, *rest)
+        return proposal(tables, lo, hits, origin_x, origin_y, resolution, prev, starts, motion, alphas, beams,
+                        params, iterations, wide_iterations, *rest)
 
     rbpf_filter.improved_proposal = spy
     try:

@@ -24,7 +24,15 @@ from slam_core.graph.loop_closure import (
 from slam_core.graph.wide_search import field_pyramid, wide_search
 from slam_core.occupancy_grid import SensorModel
 from slam_core.rbpf.config import MatcherParams
-from slam_core.rbpf.correlative import bounded_search, max_pool, search
+from slam_core.rbpf.correlative import (
+    _block_scores,
+    _score,
+    bounded_search,
+    max_pool,
+    pooled_bound,
+    pooled_bounds,
+    search,
+)
 from slam_core.rbpf.scan_matcher import beam_rows
 from tests.large_world import drifted
 from tests.synthetic_room import room_scan
@@ -80,6 +88,29 @@ def test_branch_and_bound_skips_a_region_and_finds_the_best_pose_outside_it(seed
     _, _, _, runner_up = bounded_search(field, max_pool(field, 3), 3, 0.05, 0.0, 0.0, px, py, pth, points,
                                         n_rot * step, step, cells, *skip, skip_cells, skip_steps)
     assert abs(runner_up - max(scores)) <= 1e-5 * max(1.0, max(scores))
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(0, 10_000), st.sampled_from([2, 3, 4, 8]))
+def test_block_sums_equal_the_per_offset_sums_to_the_bit(seed, block):
+    """The searches' sums over a square of blocks or offsets, point by point, against the one-offset
+    functions, with endpoints inside, across and beyond every edge of the field."""
+    rng = np.random.default_rng(seed)
+    field = rng.random((30, 34)).astype(np.float32)
+    pooled = max_pool(field, block)
+    cells_x, cells_y = rng.integers(-12, 46, 25), rng.integers(-12, 42, 25)
+    first, blocks = int(rng.integers(-6, 3)), int(rng.integers(1, 6))
+    bounds = np.empty((blocks, blocks))
+    pooled_bounds(pooled, block, cells_x, cells_y, first, bounds)
+    scores = np.empty((int(rng.integers(1, 5)), int(rng.integers(1, 5))))
+    _block_scores(field, cells_x, cells_y, first, first + 1, scores)
+    for by in range(blocks):
+        for bx in range(blocks):
+            assert bounds[by, bx] == pooled_bound(pooled, block, cells_x, cells_y, first + bx * block,
+                                                  first + by * block)
+    for j in range(scores.shape[0]):
+        for i in range(scores.shape[1]):
+            assert scores[j, i] == _score(field, cells_x, cells_y, first + i, first + 1 + j)
 
 
 def test_max_pool_is_the_maximum_over_each_block():

@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from slam_core.jit import njit
-from slam_core.rbpf.correlative import pooled_bound, rotated_endpoint_cells
+from slam_core.rbpf.correlative import pooled_bound, pooled_bounds, rotated_endpoint_cells
 
 #: Levels of the pyramid above the field (blocks of up to ``2 ** LEVELS`` cells).
 LEVELS = 6
@@ -67,12 +67,9 @@ def wide_search(pyramid, resolution, window_x, window_y, px, py, pth, points, an
     st_level = np.empty(capacity, np.int64)
     st_bound = np.empty(capacity)
     bounds = np.empty(count)
+    by_rotation = bounds.reshape((rotations, blocks, blocks))
     for r in range(rotations):
-        for by in range(blocks):
-            for bx in range(blocks):
-                bounds[(r * blocks + by) * blocks + bx] = pooled_bound(
-                    pyramid[levels], top, cells_x[r], cells_y[r], bx * top - linear_cells,
-                    by * top - linear_cells)
+        pooled_bounds(pyramid[levels], top, cells_x[r], cells_y[r], -linear_cells, by_rotation[r])
     sp = 0
     for idx in np.argsort(bounds):  # the likeliest ends on top of the stack
         if bounds[idx] > min_score:

@@ -89,6 +89,61 @@ def pooled_bound(pooled, block, cells_x, cells_y, dx, dy):
 
 
 @njit
+def pooled_bounds(pooled, block, cells_x, cells_y, first, out):
+    """``out[by, bx] = pooled_bound(pooled, block, cells_x, cells_y, first + bx * block, first +
+    by * block)`` for a square of blocks: the same sums, point by point, reading each point's rows
+    of ``pooled`` in order."""
+    size_y, size_x = pooled.shape
+    blocks = out.shape[0]
+    span = (blocks - 1) * block
+    out[:, :] = 0.0
+    for b in range(cells_x.shape[0]):
+        x0 = cells_x[b] + first
+        y0 = cells_y[b] + first
+        if x0 >= 0 and y0 >= 0 and x0 + span < size_x and y0 + span < size_y:
+            for by in range(blocks):
+                for bx in range(blocks):
+                    out[by, bx] += pooled[y0 + by * block, x0 + bx * block]
+            continue
+        for by in range(blocks):
+            yy = y0 + by * block
+            if -block < yy < 0:
+                yy = 0
+            if not 0 <= yy < size_y:
+                continue
+            for bx in range(blocks):
+                xx = x0 + bx * block
+                if -block < xx < 0:
+                    xx = 0
+                if 0 <= xx < size_x:
+                    out[by, bx] += pooled[yy, xx]
+
+
+@njit
+def _block_scores(field, cells_x, cells_y, dx0, dy0, out):
+    """``out[j, i] = _score(field, cells_x, cells_y, dx0 + i, dy0 + j)`` over ``out``'s shape: the
+    same sums, point by point."""
+    size_y, size_x = field.shape
+    ny, nx = out.shape
+    out[:, :] = 0.0
+    for b in range(cells_x.shape[0]):
+        x0 = cells_x[b] + dx0
+        y0 = cells_y[b] + dy0
+        if x0 >= 0 and y0 >= 0 and x0 + nx <= size_x and y0 + ny <= size_y:
+            for j in range(ny):
+                for i in range(nx):
+                    out[j, i] += field[y0 + j, x0 + i]
+            continue
+        for j in range(ny):
+            yy = y0 + j
+            if 0 <= yy < size_y:
+                for i in range(nx):
+                    xx = x0 + i
+                    if 0 <= xx < size_x:
+                        out[j, i] += field[yy, xx]
+
+
+@njit
 def endpoint_cells(px, py, th, points, window_x, window_y, inv, cells_x, cells_y):
     """The field cells of ``points`` (robot frame) seen from ``(px, py, th)``."""
     c = np.cos(th)
@@ -190,18 +245,16 @@ def bounded_search(field, pooled, block, resolution, window_x, window_y, px, py,
     width = 2 * linear_cells + 1
     blocks = (width + block - 1) // block
     bounds = np.empty(rotations * blocks * blocks)
+    by_rotation = bounds.reshape((rotations, blocks, blocks))
     for r in range(rotations):
-        for by in range(blocks):
-            for bx in range(blocks):
-                bounds[(r * blocks + by) * blocks + bx] = pooled_bound(
-                    pooled, block, cells_x[r], cells_y[r], bx * block - linear_cells,
-                    by * block - linear_cells)
+        pooled_bounds(pooled, block, cells_x[r], cells_y[r], -linear_cells, by_rotation[r])
     order = np.argsort(-bounds)
     best = -1.0
     bx_best, by_best, r_best = 0, 0, n_rot
     skip_dx = round((skip_x - px) / resolution)
     skip_dy = round((skip_y - py) / resolution)
     turn = round(2.0 * np.pi / angular_step)
+    scores = np.empty((block, block))
     for k in range(order.shape[0]):
         idx = order[k]
         if bounds[idx] <= best:
@@ -209,15 +262,20 @@ def bounded_search(field, pooled, block, resolution, window_x, window_y, px, py,
         r = idx // (blocks * blocks)
         by = (idx // blocks) % blocks
         bx = idx % blocks
-        for dy in range(by * block - linear_cells, min((by + 1) * block, width) - linear_cells):
-            for dx in range(bx * block - linear_cells, min((bx + 1) * block, width) - linear_cells):
+        dx0 = bx * block - linear_cells
+        dy0 = by * block - linear_cells
+        in_block = scores[:min(block, width - by * block), :min(block, width - bx * block)]
+        _block_scores(field, cells_x[r], cells_y[r], dx0, dy0, in_block)
+        for j in range(in_block.shape[0]):
+            for i in range(in_block.shape[1]):
+                dx = dx0 + i
+                dy = dy0 + j
                 if skip_cells >= 0 and abs(dx - skip_dx) <= skip_cells and abs(dy - skip_dy) <= skip_cells:
                     steps = abs(round((pth + (r - n_rot) * angular_step - skip_th) / angular_step)) % turn
                     if min(steps, turn - steps) <= skip_steps:
                         continue
-                total = _score(field, cells_x[r], cells_y[r], dx, dy)
-                if total > best:
-                    best = total
+                if in_block[j, i] > best:
+                    best = in_block[j, i]
                     bx_best, by_best, r_best = dx, dy, r
     return (px + bx_best * resolution, py + by_best * resolution, pth + (r_best - n_rot) * angular_step,
             best)

@@ -108,46 +108,34 @@ def gaussian_product(x_star, info, x_pred, motion_cov):
     return mean, cov, log_eta
 
 
-def improved_proposal(tables, lo, hits, origin_x, origin_y, resolution, prev, starts, motion, alphas,
-                      fallback_motion, fallback_alphas, beams, params, iterations, wide_iterations,
-                      min_matched, motion_floor, noise, out_pose, out_logw, out_matched):
-    """Draw every particle's new pose; fills ``out_pose``, ``out_logw`` (log eta), ``out_matched``.
+def improved_proposal(tables, lo, hits, origin_x, origin_y, resolution, prev, starts, motion, alphas, beams,
+                      params, iterations, wide_iterations, min_matched, motion_floor, noise, out_pose,
+                      out_logw, out_matched):
+    """Draw the new pose of every particle whose match fits at least ``min_matched`` beams; fills
+    ``out_pose``, ``out_logw`` (log eta) and ``out_matched``, which is False for the particles
+    left to :func:`motion_draws`.
 
     ``starts`` are the poses the matching starts from, ``motion`` is
-    ``(rot1, trans, rot2)`` of the odometry, ``noise`` standard normal ``(n, 3)``. A particle
-    that does not match is drawn around ``fallback_motion`` with the noise of ``fallback_alphas``
-    (the odometry as calibrated, :mod:`slam_core.odometry_calibration`). Particles are split
-    over threads (:func:`slam_core.jit.split`).
+    ``(rot1, trans, rot2)`` of the odometry, ``noise`` standard normal ``(n, 3)``. Particles are
+    split over threads (:func:`slam_core.jit.split`).
     """
     split(_propose, prev.shape[0], tables, lo, hits, origin_x, origin_y, resolution, prev, starts, motion,
-          alphas, fallback_motion, fallback_alphas, beams, params, iterations, wide_iterations, min_matched,
-          motion_floor, noise, out_pose, out_logw, out_matched)
+          alphas, beams, params, iterations, wide_iterations, min_matched, motion_floor, noise, out_pose,
+          out_logw, out_matched)
 
 
 @njit
 def _propose(first, stop, tables, lo, hits, origin_x, origin_y, resolution, prev, starts, motion, alphas,
-             fallback_motion, fallback_alphas, beams, params, iterations, wide_iterations, min_matched,
-             motion_floor, noise, out_pose, out_logw, out_matched):
+             beams, params, iterations, wide_iterations, min_matched, motion_floor, noise, out_pose, out_logw,
+             out_matched):
     """:func:`improved_proposal` for particles ``first`` to ``stop - 1``."""
     rot1, trans, rot2 = motion[0], motion[1], motion[2]
     for p in range(first, stop):
-        table = tables[p]
         x0, y0, th0 = prev[p, 0], prev[p, 1], prev[p, 2]
-        mx, my, mth, info, matched, ll, _ = match(table, lo, hits, origin_x, origin_y, resolution,
+        mx, my, mth, info, matched, ll, _ = match(tables[p], lo, hits, origin_x, origin_y, resolution,
                                                   starts[p, 0], starts[p, 1], starts[p, 2], beams, params,
                                                   iterations, wide_iterations)
         if matched < min_matched:
-            f1, ft, f2 = fallback_motion[0], fallback_motion[1], fallback_motion[2]
-            s1, st, s2 = noise_stds(f1, ft, f2, fallback_alphas[0], fallback_alphas[1], fallback_alphas[2],
-                                    fallback_alphas[3])
-            x, y, th = apply_motion(x0, y0, th0, f1 + s1 * noise[p, 0], ft + st * noise[p, 1],
-                                    f2 + s2 * noise[p, 2])
-            ll, _ = pose_likelihood(table, lo, hits, origin_x, origin_y, resolution, x, y, th, beams,
-                                    params)
-            out_pose[p, 0] = x
-            out_pose[p, 1] = y
-            out_pose[p, 2] = th
-            out_logw[p] = ll
             out_matched[p] = False
             continue
         px, py, pth = apply_motion(x0, y0, th0, rot1, trans, rot2)
@@ -163,6 +151,24 @@ def _propose(first, stop, tables, lo, hits, origin_x, origin_y, resolution, prev
         out_pose[p, 2] = wrap_scalar(mean[2] + step[2])
         out_logw[p] = ll + log_eta
         out_matched[p] = True
+
+
+@njit
+def motion_draws(tables, lo, hits, origin_x, origin_y, resolution, prev, which, motion, alphas, beams, params,
+                 noise, out_pose, out_logw):
+    """Draw particles ``which`` (those :func:`improved_proposal` left) from the motion model alone:
+    around ``motion`` ``(rot1, trans, rot2)`` with the noise of ``alphas`` (the odometry as
+    calibrated, :mod:`slam_core.odometry_calibration`), weighted by their observation likelihood."""
+    for k in range(which.shape[0]):
+        p = which[k]
+        s1, st, s2 = noise_stds(motion[0], motion[1], motion[2], alphas[0], alphas[1], alphas[2], alphas[3])
+        x, y, th = apply_motion(prev[p, 0], prev[p, 1], prev[p, 2], motion[0] + s1 * noise[p, 0],
+                                motion[1] + st * noise[p, 1], motion[2] + s2 * noise[p, 2])
+        ll, _ = pose_likelihood(tables[p], lo, hits, origin_x, origin_y, resolution, x, y, th, beams, params)
+        out_pose[p, 0] = x
+        out_pose[p, 1] = y
+        out_pose[p, 2] = th
+        out_logw[p] = ll
 
 
 def match_starts(table, lo, hits, origin_x, origin_y, resolution, starts, beams, params, iterations,
