@@ -152,7 +152,8 @@ WARM_UP_BEAMS = 90
 
 
 #: What :func:`warm_up` prepares in mapping mode, in order (shown while it runs).
-WARM_UP_STAGES = ("particle filter: first scan", "particle filter: update", "re-localization")
+WARM_UP_STAGES = ("particle filter: first scan", "particle filter: update",
+                  "particle filter: update without a match", "re-localization")
 
 
 def warm_up(settings, progress=None, mode: str = "mapping") -> None:
@@ -160,7 +161,8 @@ def warm_up(settings, progress=None, mode: str = "mapping") -> None:
 
     A first update compiled lazily would stall the live loop for a long time on a
     fresh install; in mapping mode a two-particle filter on a synthetic round room does it
-    up front, and a re-localization in its map compiles the searches a restart needs. The
+    up front (then an update with no echo, whose particles are drawn from the motion model
+    alone), and a re-localization in its map compiles the searches a restart needs. The
     other modes (their filters compile on their first step) prepare only the re-localization,
     in a map drawn from the same scan. ``progress(done, total, stage)`` is called before each stage.
     """
@@ -170,7 +172,9 @@ def warm_up(settings, progress=None, mode: str = "mapping") -> None:
     guess = np.array([0.3, 0.0, 0.0])
     if mode == "mapping":
         slam = RBPFSlam(config, seed=0)
+        no_echo = Scan(angles, np.full(WARM_UP_BEAMS, scan.range_max), scan.range_min, scan.range_max)
         stages = (lambda: slam.step(np.zeros(3), scan), lambda: slam.step(np.array([0.05, 0.0, 0.02]), scan),
+                  lambda: slam.step(np.array([0.1, 0.0, 0.04]), no_echo),
                   lambda: Relocalizer(*map_with_hits(slam), config).locate(scan, guess))
         names = WARM_UP_STAGES
     else:
