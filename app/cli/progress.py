@@ -20,13 +20,3 @@ def fraction_bar(description: str, unit: str = "%"):
         yield update
     finally:
         bar.close()
-
-
-@contextmanager
-def count_bar(description: str, total: int | None, unit: str):
-    """A bar counting items (e.g. scans) with their rate and the time left."""
-    bar = tqdm(total=total, desc=description, unit=unit, leave=False, disable=None)
-    try:
-        yield bar.update
-    finally:
-        bar.close()

@@ -7,10 +7,9 @@ import resource
 import sys
 from pathlib import Path
 
-from app.cli.progress import count_bar
+from app.cli.progress import fraction_bar
 from app.db.names import check_name
 from slam_core.datasets import CREDIT, is_bundled, resolve_log
-from slam_core.io.carmen import count_laser_lines
 from slam_core.io.render import save_png
 from slam_core.io.ros_map import save_map
 from slam_core.pipelines.log_slam import slam_from_log
@@ -64,13 +63,9 @@ def run(args) -> int:
     resume = load_session(args.resume) if args.resume is not None else None
     config = effective_config(args, resume.config if resume is not None else None)
     name = None if args.save_session is None else check_name(args.save_session, "session name")
-    try:
-        total = count_laser_lines(log)
-    except (OSError, EOFError):
-        total = None  # an unreadable log: the reader below reports the file and line
-    with count_bar(f"slam {log.name}", total, "scan") as tick:
-        result = slam_from_log(log, config, seed=args.seed, on_scan=lambda: tick(1),
-                               laser_mount=args.laser_mount, resume=resume)
+    with fraction_bar(f"slam {log.name}") as progress:
+        result = slam_from_log(log, config, seed=args.seed, progress=progress, laser_mount=args.laser_mount,
+                               resume=resume)
     args.out.mkdir(parents=True, exist_ok=True)
     pgm, yml = save_map(result.map, args.out / "map")
     png = save_png(result.map, args.out / "map.png", result.trajectory.poses,

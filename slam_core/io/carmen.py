@@ -306,15 +306,6 @@ def _decompressing(raw: BinaryIO, path: Path):
     return raw
 
 
-LASER_MESSAGES = (b"FLASER ", b"RLASER ", b"ROBOTLASER1 ")
-
-
-def count_laser_lines(path) -> int:
-    """How many laser lines a log has (a quick pass that parses nothing)."""
-    with open_log(path) as f:
-        return sum(1 for line in f if line.startswith(LASER_MESSAGES))
-
-
 def laser_records(path, progress=None) -> Iterator[LaserRecord]:
     """Only the laser records of a log, in file order, each carrying its odometry."""
     for record in CarmenReader(path, progress=progress):

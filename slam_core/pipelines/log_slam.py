@@ -47,10 +47,11 @@ class SlamRun:
 
 
 def slam_from_log(log_path, config: RBPFConfig | None = None, seed: int = 0,
-                  on_scan=None, laser_mount=None, resume: MappingSession | None = None) -> SlamRun:
+                  progress=None, laser_mount=None, resume: MappingSession | None = None) -> SlamRun:
     """Feed every laser record of a log to a fresh filter, then close its loops;
-    ``on_scan()`` is called per record. ``laser_mount`` (the laser's pose in the robot
-    frame) defaults to the offset between the laser and odometry poses of the log's lines.
+    ``progress(fraction)`` is told how much of the log file was read. ``laser_mount`` (the
+    laser's pose in the robot frame) defaults to the offset between the laser and odometry
+    poses of the log's lines.
 
     With ``resume`` the log continues that session: the filter starts on its map at its end
     pose (the log must begin where the session ended), and the back end closes loops over the
@@ -76,7 +77,7 @@ def slam_from_log(log_path, config: RBPFConfig | None = None, seed: int = 0,
     slam: RBPFSlam | None = None
     started = time.perf_counter()
     try:
-        for record in laser_records(log_path):
+        for record in laser_records(log_path, progress):
             odom = record.odom
             if resume is not None:
                 anchor = anchor or (odom.copy(), resume.end_pose)
@@ -92,8 +93,6 @@ def slam_from_log(log_path, config: RBPFConfig | None = None, seed: int = 0,
             odometry.append(odom)
             scans.append(record.scan)
             update_of_scan.append(slam.stats.updates - 1)
-            if on_scan is not None:
-                on_scan()
     except TruncatedLogError as exc:
         warnings.append(str(exc))
     if slam is None:
