@@ -217,12 +217,14 @@ class RBPFSlam:
         self.maps.integrate(self.poses, scan)
         self._finish_update(odom1)
 
-    def _kernel_maps(self) -> tuple:
-        """The particles' maps as the kernels take them. Not to be held while the maps integrate a
-        scan: a pool that another reference views is copied when it grows, not remapped
-        (:mod:`slam_core.mapped_pools`), which held freiburg-campus's pools twice (+150 MB)."""
+    def _kernel_maps(self, lead: int | None = None) -> tuple:
+        """The particles' maps (map ``lead``'s alone if given) as the kernels take them. Not to be
+        held while the maps integrate a scan: a pool that another reference views is copied when it
+        grows, not remapped (:mod:`slam_core.mapped_pools`), which held freiburg-campus's pools twice
+        (+150 MB)."""
         m = self.maps
-        return m.tables, m.lo, m.hits, m.origin[0], m.origin[1], m.resolution
+        tables = m.tables if lead is None else m.tables[lead]
+        return tables, m.lo, m.hits, m.origin[0], m.origin[1], m.resolution
 
     def _resample(self) -> None:
         idx = low_variance_resample(normalized(self.log_weights), self.rng)
@@ -242,9 +244,7 @@ class RBPFSlam:
         """Fraction of ``beams`` that find a surface on map ``lead`` from ``pose``."""
         if len(beams) == 0:
             return 0.0
-        maps = self.maps
-        _, matched = pose_likelihood(maps.tables[lead], maps.lo, maps.hits, maps.origin[0], maps.origin[1],
-                                     maps.resolution, pose[0], pose[1], pose[2], beams, self._params)
+        _, matched = pose_likelihood(*self._kernel_maps(lead), pose[0], pose[1], pose[2], beams, self._params)
         return matched / len(beams)
 
     def _scan_disagrees(self, moved: np.ndarray, scan: Scan) -> bool:
@@ -277,7 +277,7 @@ class RBPFSlam:
         lead = int(np.argmax(self.log_weights))
         pred = predicted[lead]
         res = maps.resolution
-        fine = (maps.tables[lead], maps.lo, maps.hits, maps.origin[0], maps.origin[1], res)
+        fine = self._kernel_maps(lead)
         step = m.lead_rotation_step
         headings = np.tile(pred, (2 * m.lead_rotations + 1, 1))
         headings[:, 2] += step * np.arange(-m.lead_rotations, m.lead_rotations + 1)
