@@ -355,17 +355,28 @@ def match(table, lo, hits, origin_x, origin_y, resolution, x, y, th, beams, para
     cells = np.empty((n_beams, (2 * MAX_RADIUS + 1) ** 2, 2), np.int64)
     points = np.empty((n_beams, (2 * MAX_RADIUS + 1) ** 2, 2))
     lines = np.empty((n_beams, 5))
-    for it in range(iterations):
-        radius = MAX_RADIUS if it < wide_iterations else 1
+    grad = np.zeros(3)
+    loglik = 0.0
+    fitting = 0
+    it = 0
+    final = iterations <= 0
+    while True:  # the Gauss-Newton passes, then one more at the result for its likelihood
+        radius = MAX_RADIUS if it < wide_iterations and not final else 1
         c = np.cos(th)
         s = np.sin(th)
-        info[:, :] = 0.0
-        grad = np.zeros(3)
-        matched = 0
-        for b in range(beams.shape[0]):
+        if not final:
+            info[:, :] = 0.0
+            grad[:] = 0.0
+            matched = 0
+        for b in range(n_beams):  # one call site: the residual is inlined once
             rows, r0, r1, d2 = _remembered_residual(table, lo, hits, origin_x, origin_y, resolution, c, s,
                                                     x, y, beams, b, params, radius, jac, keys, cells, points,
                                                     lines)
+            if final:
+                if rows > 0:
+                    fitting += 1
+                loglik -= min(d2, params[P_DMAX2])
+                continue
             if rows == 0:
                 continue
             matched += 1
@@ -377,6 +388,8 @@ def match(table, lo, hits, origin_x, origin_y, resolution, x, y, th, beams, para
                     grad[i] += w * jac[k, i] * r
                     for j in range(3):
                         info[i, j] += w * jac[k, i] * jac[k, j]
+        if final:
+            break
         system = info.copy()
         system[0, 0] += prior_xy
         system[1, 1] += prior_xy
@@ -388,16 +401,7 @@ def match(table, lo, hits, origin_x, origin_y, resolution, x, y, th, beams, para
         x -= step[0]
         y -= step[1]
         th -= step[2]
-        if it >= wide_iterations and abs(step[0]) + abs(step[1]) < 1e-4 and abs(step[2]) < 1e-4:
-            break
-    c = np.cos(th)
-    s = np.sin(th)
-    loglik = 0.0
-    fitting = 0
-    for b in range(n_beams):
-        rows, _, _, d2 = _remembered_residual(table, lo, hits, origin_x, origin_y, resolution, c, s, x, y,
-                                              beams, b, params, 1, jac, keys, cells, points, lines)
-        if rows > 0:
-            fitting += 1
-        loglik -= min(d2, params[P_DMAX2])
+        converged = it >= wide_iterations and abs(step[0]) + abs(step[1]) < 1e-4 and abs(step[2]) < 1e-4
+        it += 1
+        final = converged or it >= iterations
     return x, y, th, info, matched, loglik / (2.0 * params[P_LSIGMA2]), fitting
