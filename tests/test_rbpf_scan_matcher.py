@@ -10,14 +10,17 @@ from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.rbpf.config import MatcherParams
 from slam_core.rbpf.proposal import match_starts
 from slam_core.rbpf.scan_matcher import (
+    FREE_STEP,
+    P_DMAX2,
+    P_FREE,
     P_HUBER,
     P_LSIGMA2,
     P_OCCUPIED,
     P_PRIOR_TH,
     P_PRIOR_XY,
-    _residual,
     _solve3,
     local_line,
+    logodds_at,
     match,
     pose_likelihood,
     surface_point,
@@ -135,9 +138,51 @@ def test_parallel_matches_from_several_starts_equal_the_serial_ones(room_map):
     assert len(np.unique(poses[:, 0])) > 1  # the starts did lead to different results
 
 
+def plain_residual(args, c, s, x, y, beam, params, radius, jac):
+    """One beam's residual as the module's docstring defines it, in plain Python, looking every cell
+    up again: ``(rows, r0, r1, d2)`` (0 rows without a correspondence, ``d2`` then ``inf``)."""
+    table, lo, _, origin_x, origin_y, resolution = args
+    rx, ry = c * beam[0] - s * beam[1], s * beam[0] + c * beam[1]
+    ex, ey = x + rx, y + ry
+    back = FREE_STEP * resolution
+    fx, fy = ex - back * (c * beam[2] - s * beam[3]), ey - back * (s * beam[2] + c * beam[3])
+    inv = 1.0 / resolution
+    ix, iy = math.floor((ex - origin_x) * inv), math.floor((ey - origin_y) * inv)
+    fix, fiy = math.floor((fx - origin_x) * inv), math.floor((fy - origin_y) * inv)
+    best, cell, point = math.inf, None, None
+    for dy in range(-radius, radius + 1):
+        for dx in range(-radius, radius + 1):
+            found, sx, sy = surface_point(*args, ix + dx, iy + dy, params[P_OCCUPIED])
+            if not found or logodds_at(table, lo, fix + dx, fiy + dy) >= params[P_FREE]:
+                continue
+            d2 = (ex - sx) * (ex - sx) + (ey - sy) * (ey - sy)
+            if d2 < best:
+                best, cell, point = d2, (ix + dx, iy + dy), (sx, sy)
+    if cell is None:
+        return 0, 0.0, 0.0, best
+    is_line, nx, ny, cx, cy = local_line(*args, *cell, params[P_OCCUPIED])
+    if is_line:
+        r = nx * (ex - cx) + ny * (ey - cy)
+        jac[0] = nx, ny, -nx * ry + ny * rx
+        return 1, r, 0.0, r * r
+    jac[0], jac[1] = (1.0, 0.0, -ry), (0.0, 1.0, rx)
+    return 2, ex - point[0], ey - point[1], best
+
+
+def reference_likelihood(args, x, y, th, beams, params):
+    """``(log-likelihood, beams matched)`` of a pose from :func:`plain_residual` at radius 1."""
+    c, s, jac = math.cos(th), math.sin(th), np.empty((2, 3))
+    loglik, matched = 0.0, 0
+    for beam in beams:
+        rows, _, _, d2 = plain_residual(args, c, s, x, y, beam, params, 1, jac)
+        matched += rows > 0
+        loglik -= min(d2, params[P_DMAX2])
+    return loglik / (2.0 * params[P_LSIGMA2]), matched
+
+
 def reference_match(args, x, y, th, beams, params, iterations, wide_iterations):
-    """:func:`match`'s Gauss-Newton written out in Python on the single-beam ``_residual``, which
-    looks everything up again on every call (no per-beam memory)."""
+    """:func:`match`'s Gauss-Newton written out in Python on :func:`plain_residual` (no per-beam
+    memory)."""
     x0, y0, th0 = x, y, th
     inv_l2 = 1.0 / params[P_LSIGMA2]
     prior_xy, prior_th = 1.0 / params[P_PRIOR_XY], 1.0 / params[P_PRIOR_TH]
@@ -147,7 +192,7 @@ def reference_match(args, x, y, th, beams, params, iterations, wide_iterations):
         c, s = math.cos(th), math.sin(th)
         info, grad, matched = np.zeros((3, 3)), np.zeros(3), 0
         for beam in beams:
-            rows, r0, r1, d2 = _residual(*args, c, s, x, y, beam, params, radius, jac)
+            rows, r0, r1, d2 = plain_residual(args, c, s, x, y, beam, params, radius, jac)
             if rows == 0:
                 continue
             matched += 1
@@ -181,7 +226,8 @@ def test_the_matcher_remembering_cells_gives_exactly_the_plain_result(room_map, 
     rx, ry, rth, rinfo, rmatched = reference_match(args_of(room_map), *start, beams, params, 10, 3)
     assert (x, y, th, matched) == (rx, ry, rth, rmatched)
     np.testing.assert_array_equal(info, rinfo)
-    assert (ll, fitting) == pose_likelihood(*args_of(room_map), x, y, th, beams, params)
+    reference = reference_likelihood(args_of(room_map), x, y, th, beams, params)
+    assert (ll, fitting) == reference == pose_likelihood(*args_of(room_map), x, y, th, beams, params)
     assert (x, y, th) != tuple(start)
 
 

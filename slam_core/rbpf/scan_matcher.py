@@ -90,35 +90,6 @@ def surface_point(table, lo, hits, origin_x, origin_y, resolution, ix, iy, occup
 
 
 @njit(inline="always")
-def correspondence(table, lo, hits, origin_x, origin_y, resolution, ex, ey, fx, fy,
-                   occupied_lo, free_lo, radius):
-    """``(d2, ix, iy, sx, sy)``: the nearest admissible surface point to endpoint ``(ex, ey)``.
-
-    ``(fx, fy)`` is the point ``FREE_STEP`` cells back along the beam; a candidate cell
-    counts only if the cell at the same offset from the free point is free. ``d2`` is
-    ``inf`` when no cell within ``radius`` qualifies.
-    """
-    inv = 1.0 / resolution
-    ix = int(np.floor((ex - origin_x) * inv))
-    iy = int(np.floor((ey - origin_y) * inv))
-    fix = int(np.floor((fx - origin_x) * inv))
-    fiy = int(np.floor((fy - origin_y) * inv))
-    best = np.inf
-    bx, by, bsx, bsy = 0, 0, 0.0, 0.0
-    for dy in range(-radius, radius + 1):
-        for dx in range(-radius, radius + 1):
-            found, sx, sy = surface_point(table, lo, hits, origin_x, origin_y, resolution,
-                                          ix + dx, iy + dy, occupied_lo)
-            if not found or logodds_at(table, lo, fix + dx, fiy + dy) >= free_lo:
-                continue
-            d2 = (ex - sx) * (ex - sx) + (ey - sy) * (ey - sy)
-            if d2 < best:
-                best = d2
-                bx, by, bsx, bsy = ix + dx, iy + dy, sx, sy
-    return best, bx, by, bsx, bsy
-
-
-@njit(inline="always")
 def local_line(table, lo, hits, origin_x, origin_y, resolution, ix, iy, occupied_lo):
     """``(is_line, nx, ny, cx, cy)``: unit normal and centroid of the surface around cell ``(ix, iy)``."""
     n = 0
@@ -156,32 +127,8 @@ def local_line(table, lo, hits, origin_x, origin_y, resolution, ix, iy, occupied
 
 
 @njit(inline="always")
-def _residual(table, lo, hits, origin_x, origin_y, resolution, c, s, x, y, beam, params, radius, jac):
-    """Residual(s) of one beam at pose ``(x, y, atan2(s, c))``.
-
-    Returns ``(rows, r0, r1, d2)``: 0 rows when unmatched, 1 (point-to-line, ``r0``,
-    Jacobian in ``jac[0]``) or 2 (point-to-point, ``r0, r1``, ``jac[0], jac[1]``);
-    ``d2`` is the squared residual length.
-    """
-    rx = c * beam[0] - s * beam[1]
-    ry = s * beam[0] + c * beam[1]
-    ex = x + rx
-    ey = y + ry
-    back = FREE_STEP * resolution
-    fx = ex - back * (c * beam[2] - s * beam[3])
-    fy = ey - back * (s * beam[2] + c * beam[3])
-    d2, ix, iy, sx, sy = correspondence(table, lo, hits, origin_x, origin_y, resolution, ex, ey, fx, fy,
-                                        params[P_OCCUPIED], params[P_FREE], radius)
-    if d2 == np.inf:
-        return 0, 0.0, 0.0, d2
-    is_line, nx, ny, cx, cy = local_line(table, lo, hits, origin_x, origin_y, resolution, ix, iy,
-                                         params[P_OCCUPIED])
-    return _rows(is_line, nx, ny, cx, cy, ex, ey, rx, ry, sx, sy, d2, jac)
-
-
-@njit(inline="always")
 def _rows(is_line, nx, ny, cx, cy, ex, ey, rx, ry, sx, sy, d2, jac):
-    """:func:`_residual`'s result for a beam ending at ``(ex, ey)`` (``(rx, ry)`` from the pose)
+    """:func:`_remembered_residual`'s result for a beam ending at ``(ex, ey)`` (``(rx, ry)`` from the pose)
     matched to surface point ``(sx, sy)`` (squared distance ``d2``) on the local line found there."""
     if is_line:
         r = nx * (ex - cx) + ny * (ey - cy)
@@ -201,10 +148,14 @@ def _rows(is_line, nx, ny, cx, cy, ex, ey, rx, ry, sx, sy, d2, jac):
 @njit(inline="always")
 def _remembered_residual(table, lo, hits, origin_x, origin_y, resolution, c, s, x, y, beams, b, params,
                          radius, jac, keys, cells, points, lines):
-    """:func:`_residual` of beam ``b``, remembering across calls what depends only on cells:
-    the admissible surface points around the endpoint's cell (kept while the endpoint and its
-    free point stay in the same cells and ``radius`` is the same), and the local line of the
-    last correspondence's cell. The same result, with fewer map reads as the pose converges.
+    """Residual(s) of beam ``b`` at pose ``(x, y, atan2(s, c))``: ``(rows, r0, r1, d2)``, 0 rows
+    when unmatched, 1 (point-to-line, ``r0``, Jacobian in ``jac[0]``) or 2 (point-to-point, ``r0,
+    r1``, ``jac[0], jac[1]``); ``d2`` is the squared residual length (``inf`` with no correspondence).
+
+    It remembers across calls what depends only on cells: the admissible surface points around the
+    endpoint's cell (kept while the endpoint and its free point stay in the same cells and ``radius``
+    is the same), and the local line of the last correspondence's cell, so a converging match reads
+    the map less.
 
     ``keys[b]``: ``(ix, iy, fix, fiy, radius, count, line_ix, line_iy)``; ``cells[b, :count]``
     and ``points[b, :count]`` the admissible cells and their surface points in search order;
@@ -275,24 +226,6 @@ def beam_rows(scan, max_range: float, max_beams: int) -> np.ndarray:
     a = scan.angles[idx]
     ux, uy = np.cos(a), np.sin(a)
     return np.ascontiguousarray(np.column_stack([r[idx] * ux, r[idx] * uy, ux, uy]))
-
-
-@njit
-def pose_likelihood(table, lo, hits, origin_x, origin_y, resolution, x, y, th, beams, params):
-    """``(log_likelihood, matched)`` of a pose: the truncated Gaussian beam model."""
-    c = np.cos(th)
-    s = np.sin(th)
-    jac = np.empty((2, 3))
-    dmax2 = params[P_DMAX2]
-    loglik = 0.0
-    matched = 0
-    for b in range(beams.shape[0]):
-        rows, _, _, d2 = _residual(table, lo, hits, origin_x, origin_y, resolution, c, s, x, y, beams[b],
-                                   params, 1, jac)
-        if rows > 0:
-            matched += 1
-        loglik -= min(d2, dmax2)
-    return loglik / (2.0 * params[P_LSIGMA2]), matched
 
 
 @njit
@@ -405,3 +338,13 @@ def match(table, lo, hits, origin_x, origin_y, resolution, x, y, th, beams, para
         it += 1
         final = converged or it >= iterations
     return x, y, th, info, matched, loglik / (2.0 * params[P_LSIGMA2]), fitting
+
+
+@njit
+def pose_likelihood(table, lo, hits, origin_x, origin_y, resolution, x, y, th, beams, params):
+    """``(log_likelihood, matched)`` of a pose: the truncated Gaussian beam model, by :func:`match`'s
+    last pass with no Gauss-Newton step before it (one compiled copy of the per-beam code)."""
+    none = np.int64(0)  # typed as every other caller's counts: a literal 0 compiles match once more
+    _, _, _, _, _, loglik, matched = match(table, lo, hits, origin_x, origin_y, resolution, x, y, th, beams,
+                                           params, none, none)
+    return loglik, matched
