@@ -9,6 +9,7 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from slam_core.geometry import relative, wrap_angle
+from slam_core.graph import loop_closure as lc
 from slam_core.graph import pose_graph
 from slam_core.graph.config import LoopClosureConfig
 from slam_core.graph.loop_closure import (
@@ -191,7 +192,41 @@ def test_every_scan_is_matched_instead_of_trusting_stale_odometry_or_noisy_poses
     assert err[~is_update].mean() < 0.02
     assert err_th[~is_update].mean() < 0.5 * stale_th.mean()
     assert err[is_update].mean() < 0.6 * noise.mean()
-    assert not any("field" in vars(sub) for sub in submaps._built.values())  # the re-match needs none
+    assert not any("field" in vars(sub) for sub in submaps._kept.values())  # the re-match needs none
+
+
+@pytest.mark.parametrize("budget", [0, 3])
+def test_submaps_beyond_the_kept_bytes_are_rebuilt_to_the_same_poses(monkeypatch, budget):
+    truth = two_laps()
+    bent = drifted(truth, turn_bias=0.002, scale=1.01)
+    rng = np.random.default_rng(3)
+    scans = [room_scan(p, 360, noise=0.01, rng=rng) for p in truth]
+    update_of_scan = np.arange(len(truth))
+    builds = []
+    real_init = Submap.__init__
+
+    def counted(self, updates, *args):
+        builds.append(int(updates[0]))
+        real_init(self, updates, *args)
+
+    monkeypatch.setattr(Submap, "__init__", counted)
+
+    def run():
+        builds.clear()
+        closed, submaps = close_loops(bent, scans, CONFIG)
+        poses = scan_poses(submaps, closed.poses, update_of_scan, bent, bent, scans, CONFIG)
+        return closed, submaps, poses, list(builds)
+
+    kept_all, submaps, poses, built_once = run()
+    assert sorted(built_once) == sorted(set(built_once)) and len(built_once) == len(submaps)
+    assert sum(sub.maps.nbytes() for sub in submaps._kept.values()) <= lc.KEPT_SUBMAP_BYTES
+    one = next(iter(submaps._kept.values())).maps.nbytes()
+    monkeypatch.setattr(lc, "KEPT_SUBMAP_BYTES", budget * one)
+    rebuilt, submaps, rebuilt_poses, built = run()
+    assert len(submaps._kept) <= budget
+    assert len(built) > len(built_once)  # the searches' later rounds and the re-match built them again
+    assert np.array_equal(rebuilt.poses, kept_all.poses) and rebuilt.loop_pairs == kept_all.loop_pairs
+    assert np.array_equal(rebuilt_poses, poses)
 
 
 @settings(max_examples=50, deadline=None)

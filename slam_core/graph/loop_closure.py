@@ -43,7 +43,6 @@ from __future__ import annotations
 
 import os
 import threading
-from collections import OrderedDict
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -64,8 +63,10 @@ from slam_core.rbpf.scan_matcher import P_OCCUPIED, beam_rows, match
 from slam_core.rbpf.tiled_map import TiledMaps
 from slam_core.scan import Scan
 
-#: Submaps kept built at once (they are rebuilt on demand).
-CACHED_SUBMAPS = 6
+#: Bytes of built submap maps kept for the later searches and the scans' re-match; those built after
+#: the budget is spent are rebuilt when asked for again (each pass visits the submaps in order, so
+#: a recently-used cache would keep none of them until the next pass needs it).
+KEPT_SUBMAP_BYTES = 64 << 20
 #: Side (cells) of the blocks whose bounds the branch and bound search scores first.
 BLOCK_CELLS = 4
 #: A scan between updates is also matched from where the robot's pace puts it when that start lies
@@ -174,9 +175,11 @@ class Submap:
             self._pyramid = field_pyramid(self.field, LEVELS)
         return self._pyramid
 
-    def release_pyramid(self) -> None:
-        """Let the pyramid go (``LEVELS + 1`` copies of the field; a search batch holds all of a
-        submap's queries, so the next one needing it is a later round)."""
+    def release_fields(self) -> None:
+        """Let the field, its pooled copy and the pyramid go (a search batch holds all of a submap's
+        queries, so the next one needing them is a later round; the maps stay)."""
+        self.__dict__.pop("field", None)
+        self.__dict__.pop("pooled", None)
         self._pyramid = None
 
     def fine(self) -> tuple:
@@ -189,7 +192,8 @@ class Submap:
 
 
 class Submaps:
-    """The trajectory's submaps, built when first asked for and kept while recently used."""
+    """The trajectory's submaps, built when first asked for; their maps are kept while they take at
+    most ``KEPT_SUBMAP_BYTES`` (the first ones built), the others are rebuilt when asked for again."""
 
     def __init__(self, poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig, resolution: float,
                  model: SensorModel, matcher: MatcherParams, params: np.ndarray):
@@ -202,7 +206,8 @@ class Submaps:
         reach = (config.search_radius + config.linear_window + matcher.coarse_range
                  + matcher.coarse_reach_cells * resolution)
         self._args = (poses, scans, resolution, model, matcher, params, reach)
-        self._built: OrderedDict[int, Submap] = OrderedDict()
+        self._kept: dict[int, Submap] = {}
+        self._kept_bytes = 0
         self._lock = threading.Lock()
 
     def __len__(self) -> int:
@@ -210,14 +215,14 @@ class Submaps:
 
     def __getitem__(self, s: int) -> Submap:
         with self._lock:
-            if s in self._built:
-                self._built.move_to_end(s)
-                return self._built[s]
+            if s in self._kept:
+                return self._kept[s]
         sub = Submap(self.ranges[s], *self._args)
+        size = sub.maps.nbytes()
         with self._lock:
-            self._built[s] = sub
-            if len(self._built) > CACHED_SUBMAPS:
-                self._built.popitem(last=False)
+            if self._kept_bytes + size <= KEPT_SUBMAP_BYTES:
+                self._kept[s] = sub
+                self._kept_bytes += size
         return sub
 
     def of_update(self, u: int) -> int:
@@ -354,7 +359,7 @@ def close_loops(poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig 
                 found.append((q, *loop_edge(sub.anchor_pose, hit[0], hit[1] * config.information_scale)))
             elif not wide and (hit is None or hit[2] < config.accept_fit):  # nothing a narrow test takes
                 failed[(s, q)] = relative(estimate[sub.anchor], estimate[q])
-        sub.release_pyramid()
+        sub.release_fields()
         return s, found
 
     def confirmed(sub: Submap, q: int, pose: np.ndarray, estimate: np.ndarray) -> bool:
