@@ -9,7 +9,8 @@ import numpy as np
 
 from slam_core.geometry import compose, relative
 from slam_core.graph.loop_closure import LoopClosureResult, close_loops, per_scan_poses, scan_poses
-from slam_core.io.carmen import TruncatedLogError, laser_mount_of, laser_records
+from slam_core.io.carmen import TruncatedLogError, laser_mount_of
+from slam_core.io.log_process import laser_records_in_process
 from slam_core.io.trajectory import Trajectory
 from slam_core.map_bands import MapBands
 from slam_core.occupancy_grid import OccupancyGrid
@@ -48,8 +49,8 @@ class SlamRun:
 
 def slam_from_log(log_path, config: RBPFConfig | None = None, seed: int = 0,
                   progress=None, laser_mount=None, resume: MappingSession | None = None) -> SlamRun:
-    """Feed every laser record of a log to a fresh filter, then close its loops;
-    ``progress(fraction)`` is told how much of the log file was read. ``laser_mount`` (the
+    """Feed every laser record of a log (parsed by a process of its own) to a fresh filter, then close
+    its loops; ``progress(fraction)`` is told how much of the log file was read. ``laser_mount`` (the
     laser's pose in the robot frame) defaults to the offset between the laser and odometry
     poses of the log's lines.
 
@@ -77,7 +78,7 @@ def slam_from_log(log_path, config: RBPFConfig | None = None, seed: int = 0,
     slam: RBPFSlam | None = None
     started = time.perf_counter()
     try:
-        for record in laser_records(log_path, progress):
+        for record in laser_records_in_process(log_path, progress):
             odom = record.odom
             if resume is not None:
                 anchor = anchor or (odom.copy(), resume.end_pose)
