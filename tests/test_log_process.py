@@ -12,7 +12,7 @@ import pytest
 from slam_core.datasets import BUNDLED
 from slam_core.io import log_process
 from slam_core.io.carmen import LaserRecord, LogFormatError, TruncatedLogError, laser_records
-from slam_core.io.log_process import laser_records_in_process
+from slam_core.io.log_process import LaserRecordsInProcess
 from tests.test_carmen import LOG, flaser, write_log
 
 
@@ -42,15 +42,18 @@ def test_the_childs_records_are_the_readers(tmp_path, suffix):
     text = LOG + "".join(flaser([0.5 + 0.01 * i, float("nan"), 90.0], stamp=f"{200 + i}.125")
                          for i in range(3 * log_process.BATCH + 7))
     path = write_log(tmp_path / f"a{suffix}", text)
-    here, there = list(laser_records(path)), list(laser_records_in_process(path))
+    here, there = list(laser_records(path)), list(LaserRecordsInProcess(path))
     assert len(there) == len(here) == 4 + 3 * log_process.BATCH + 7
     assert all(same_record(a, b) for a, b in zip(here, there, strict=True))
 
 
-def test_a_bundled_logs_records_are_the_readers():
+def test_a_bundled_logs_records_are_the_readers_and_the_child_tells_its_memory():
     path = BUNDLED["mit-csail"][0]
-    here, there = list(laser_records(path)), list(laser_records_in_process(path))
+    records = LaserRecordsInProcess(path)
+    assert records.peak_rss_mb is None
+    here, there = list(laser_records(path)), list(records)
     assert len(here) > 1000 and all(same_record(a, b) for a, b in zip(here, there, strict=True))
+    assert 10 < records.peak_rss_mb < 120  # numpy and the reader (not the parent's memory at the start)
 
 
 def test_a_malformed_line_is_raised_after_every_record_before_it(tmp_path):
@@ -58,7 +61,7 @@ def test_a_malformed_line_is_raised_after_every_record_before_it(tmp_path):
     path = write_log(tmp_path / "bad.clf", good + "FLASER 3 1.0 2.0\n" + good)
     got = []
     with pytest.raises(LogFormatError) as info:
-        got.extend(laser_records_in_process(path))
+        got.extend(LaserRecordsInProcess(path))
     assert not isinstance(info.value, TruncatedLogError)
     assert [r.stamp.ipc_text for r in got] == [f"{i}.5" for i in range(600)]
     assert info.value.path == str(path) and info.value.line_number == 601
@@ -73,27 +76,27 @@ def test_a_cut_stream_is_raised_as_truncated_after_what_it_held(tmp_path):
     path.write_bytes(bz2.compress(first.encode()) + bz2.compress(second.encode())[:-30])
     got = []
     with pytest.raises(TruncatedLogError, match=r"cut\.bz2"):
-        got.extend(laser_records_in_process(path))
+        got.extend(LaserRecordsInProcess(path))
     assert [r.stamp.ipc_text for r in got[:300]] == [f"{i}.25" for i in range(300)]
     assert [r.stamp.ipc_text for r in got[300:]] == [f"{i}.75" for i in range(300, len(got))]
 
 
 def test_a_missing_file_is_the_readers_error(tmp_path):
     with pytest.raises(FileNotFoundError, match=r"nope\.clf"):
-        list(laser_records_in_process(tmp_path / "nope.clf"))
+        list(LaserRecordsInProcess(tmp_path / "nope.clf"))
 
 
 def test_progress_rises_to_one(tmp_path):
     path = write_log(tmp_path / "a.bz2", "".join(flaser([1.0, 2.0], stamp=f"{i}.5") for i in range(20_000)))
     seen = []
-    list(laser_records_in_process(path, progress=seen.append))
+    list(LaserRecordsInProcess(path, progress=seen.append))
     assert len(seen) > 10 and seen[-1] == 1.0 and seen == sorted(seen) and 0.0 <= seen[0] < 0.5
 
 
 def test_the_child_is_stopped_when_the_iteration_is_abandoned(tmp_path):
     lines = "".join(flaser([1.0, 2.0], stamp=f"{i}.5") for i in range(50_000))
     path = write_log(tmp_path / "long.clf", lines)
-    records = laser_records_in_process(path)
+    records = iter(LaserRecordsInProcess(path))
     next(records)
     assert len(readers_of(path)) == 1
     records.close()
@@ -104,4 +107,4 @@ def test_a_child_that_dies_is_an_error_not_an_early_end(tmp_path, monkeypatch):
     path = write_log(tmp_path / "a.clf", flaser([1.0, 2.0]))
     monkeypatch.setattr(sys, "executable", "/bin/false")  # exits at once, sending nothing
     with pytest.raises(RuntimeError, match="ended without finishing"):
-        list(laser_records_in_process(path))
+        list(LaserRecordsInProcess(path))
