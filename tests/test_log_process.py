@@ -4,6 +4,7 @@ child gone when the iteration ends."""
 import bz2
 import os
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -50,10 +51,14 @@ def test_the_childs_records_are_the_readers(tmp_path, suffix):
 def test_a_bundled_logs_records_are_the_readers_and_the_child_tells_its_memory():
     path = BUNDLED["mit-csail"][0]
     records = LaserRecordsInProcess(path)
-    assert records.peak_rss_mb is None
+    assert records.memory is None
     here, there = list(laser_records(path)), list(records)
     assert len(here) > 1000 and all(same_record(a, b) for a, b in zip(here, there, strict=True))
-    assert 10 < records.peak_rss_mb < 120  # numpy and the reader (not the parent's memory at the start)
+    memory = records.memory
+    assert 10 < memory.peak_rss_mb < 120  # numpy and the reader (not the parent's memory at the start)
+    assert memory.own_rss_mb_then > 10
+    assert memory.together(1.0) == memory.own_rss_mb_then + memory.peak_rss_mb
+    assert memory.together(1e6) == 1e6
 
 
 def test_a_malformed_line_is_raised_after_every_record_before_it(tmp_path):
@@ -94,13 +99,27 @@ def test_progress_rises_to_one(tmp_path):
 
 
 def test_the_child_is_stopped_when_the_iteration_is_abandoned(tmp_path):
-    lines = "".join(flaser([1.0, 2.0], stamp=f"{i}.5") for i in range(50_000))
+    lines = "".join(flaser([1.0, 2.0], stamp=f"{i}.5") for i in range(300_000))
     path = write_log(tmp_path / "long.clf", lines)
     records = iter(LaserRecordsInProcess(path))
     next(records)
-    assert len(readers_of(path)) == 1
+    assert len(readers_of(path)) == 1  # parsing 300,000 lines takes it seconds
     records.close()
     assert readers_of(path) == []
+
+
+def test_the_child_ends_once_it_has_parsed_the_log_however_slowly_the_records_are_taken(tmp_path):
+    lines = "".join(flaser([1.0, float(i)], stamp=f"{i}.5") for i in range(20_000))
+    path = write_log(tmp_path / "a.clf", lines)
+    reading = LaserRecordsInProcess(path)
+    records = iter(reading)
+    first = next(records)
+    deadline = time.monotonic() + 30.0
+    while readers_of(path) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert readers_of(path) == [] and reading.memory is not None  # gone, with one record taken
+    rest = list(records)
+    assert [r.stamp.ipc_text for r in [first, *rest]] == [f"{i}.5" for i in range(20_000)]
 
 
 def test_a_child_that_dies_is_an_error_not_an_early_end(tmp_path, monkeypatch):

@@ -10,7 +10,7 @@ import numpy as np
 from slam_core.geometry import compose, relative
 from slam_core.graph.loop_closure import LoopClosureResult, close_loops, per_scan_poses, scan_poses
 from slam_core.io.carmen import TruncatedLogError, laser_mount_of
-from slam_core.io.log_process import LaserRecordsInProcess
+from slam_core.io.log_process import LaserRecordsInProcess, ReaderMemory
 from slam_core.io.trajectory import Trajectory
 from slam_core.map_bands import MapBands
 from slam_core.occupancy_grid import OccupancyGrid
@@ -41,8 +41,8 @@ class SlamRun:
     laser_mount: LaserMount = field(default_factory=LaserMount)
     #: Every update so far (a resumed session's first), to be saved and continued later.
     session: MappingSession | None = None
-    #: Peak RSS (MB) of the process that read the log beside the filter's (``None`` if not known).
-    log_reader_rss_mb: float | None = None
+    #: What the process that read the log took beside this one (``None`` if not known).
+    log_reader: ReaderMemory | None = None
 
     @property
     def grid(self) -> OccupancyGrid:
@@ -114,7 +114,7 @@ def slam_from_log(log_path, config: RBPFConfig | None = None, seed: int = 0,
         session = _session_after(resume, config, mount, best.poses, best.odometry, update_scans,
                                  particle.poses[-1])
         return SlamRun(*filtered, particle, particle, slam.occupancy_map(), filter_time, filter_time,
-                       duration, None, warnings, mount, session, records.peak_rss_mb)
+                       duration, None, warnings, mount, session, records.memory)
     del slam  # the particles' maps: the back end renders its own
     final, bands, closed, updates = close_filter_loops(config, mount, best, update_of_scan, is_update,
                                                        odometry, scans, resume)
@@ -122,7 +122,7 @@ def slam_from_log(log_path, config: RBPFConfig | None = None, seed: int = 0,
                              (resume.scans if resume else []) + update_scans, final[-1])
     wall = time.perf_counter() - started
     return SlamRun(*filtered, particle, Trajectory(stamps, final), bands, wall, filter_time, duration,
-                   closed, warnings, mount, session, records.peak_rss_mb)
+                   closed, warnings, mount, session, records.memory)
 
 
 def _session_after(resumed: MappingSession | None, config: RBPFConfig, mount: LaserMount, poses: np.ndarray,
