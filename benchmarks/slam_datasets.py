@@ -1,9 +1,8 @@
 """Benchmark: ``homebot slam`` on the bundled intel and mit-csail logs and the stress logs.
 
 Prints one table, a row per log and seed: wall time (all, and the particle filter's
-share), CPU seconds, peak RSS (the log reader's process beside it added), filter updates, loop
-edges found and rejected, and the relation error (mean ± std) of the result and of the best
-particle's own trajectory
+share), CPU seconds, peak RSS, filter updates, loop edges found and rejected, and the
+relation error (mean ± std) of the result and of the best particle's own trajectory
 (before the loop-closing back end); before it, the numba compile time (cold cache and
 warm cache). Stress logs are ``<stress-dir>/<name>/<name>.clf.bz2`` with their
 ``<name>.relations``; run it with ``nice -n 10`` on a shared machine.

@@ -37,7 +37,6 @@ def test_slam_writes_the_map_both_trajectories_the_config_and_stats(mit_slice, t
     assert 0.0 < shift.max() < 0.3
     stats = json.loads((out / "stats.json").read_text())
     assert stats["scans"] == 300 and stats["filter_time_s"] <= stats["wall_time_s"]
-    assert 0 < stats["log_reader_peak_rss_mb"] < stats["peak_rss_mb"]  # the reader's process is counted
     assert {"loop_edges", "rejected_loop_edges", "loop_candidates_tried"} <= stats.keys()
     config = RBPFConfig.from_dict(json.loads((out / "config.json").read_text()))
     assert config.particles == 8 and config.loop_closure.enabled

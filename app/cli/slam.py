@@ -76,8 +76,6 @@ def run(args) -> int:
     if name is not None:
         session = save_session(result.session, args.out / f"{name}{SUFFIX}")
         print(f"saved the session ({len(result.session.scans)} updates) as {session}")
-    own_rss = _peak_rss_mb()
-    reader = result.log_reader
     stats = {
         "log": str(log),
         "seed": args.seed,
@@ -86,8 +84,7 @@ def run(args) -> int:
         "filter_time_s": round(result.filter_time, 3),
         "log_duration_s": round(result.log_duration, 3),
         "real_time_factor": round(result.log_duration / max(result.wall_time, 1e-9), 2),
-        "peak_rss_mb": round(own_rss if reader is None else reader.together(own_rss), 1),
-        "log_reader_peak_rss_mb": None if reader is None else round(reader.peak_rss_mb, 1),
+        "peak_rss_mb": round(_peak_rss_mb(), 1),
         "map_storage_mb": round(result.map_bytes / 1e6, 1),
         "tiles_in_use": result.tiles_in_use,
         **result.stats.as_dict(),
@@ -110,9 +107,7 @@ def run(args) -> int:
         print(f"loop closing: {lc.loop_edges} loop edges ({lc.rejected_edges} rejected as outliers), "
               f"{result.wall_time - result.filter_time:.1f} s")
     print(f"{result.wall_time:.1f} s wall for {result.log_duration:.0f} s of log "
-          f"({stats['real_time_factor']}x real time), peak RSS {stats['peak_rss_mb']} MB"
-          + ("" if reader is None else f" (with the log reader's process, {reader.peak_rss_mb:.0f} MB, "
-                                       f"while it ran)"))
+          f"({stats['real_time_factor']}x real time), peak RSS {stats['peak_rss_mb']} MB")
     print(f"wrote {yml}, {pgm}, {png}, {traj}, {particle}, {args.out / 'config.json'}, "
           f"{args.out / 'stats.json'}")
     if is_bundled(log):

@@ -25,6 +25,7 @@ from typing import BinaryIO
 
 import numpy as np
 
+from slam_core.geometry import relative, wrap_angle
 from slam_core.io.read_ahead import ReadAhead
 from slam_core.scan import Scan, uniform_angles
 
@@ -51,9 +52,6 @@ class LogFormatError(ValueError):
         self.path = str(path)
         self.line_number = line_number
         self.problem = problem
-
-    def __reduce__(self):  # pickled by its fields (the log reader's process sends it)
-        return type(self), (self.path, self.line_number, self.problem)
 
 
 class TruncatedLogError(LogFormatError):
@@ -323,9 +321,6 @@ def laser_mount_of(path, records: int = MOUNT_RECORDS) -> np.ndarray | None:
     the offsets disagree (a log whose laser pose was corrected by some estimator), so
     the laser pose says nothing about the mount.
     """
-    from slam_core.geometry import relative, wrap_angle  # here: it brings numba, which the log
-    # reader's process (slam_core.io.log_process) does without
-
     offsets = []
     try:
         for record in laser_records(path):

@@ -9,8 +9,7 @@ import numpy as np
 
 from slam_core.geometry import compose, relative
 from slam_core.graph.loop_closure import LoopClosureResult, close_loops, per_scan_poses, scan_poses
-from slam_core.io.carmen import TruncatedLogError, laser_mount_of
-from slam_core.io.log_process import LaserRecordsInProcess, ReaderMemory
+from slam_core.io.carmen import TruncatedLogError, laser_mount_of, laser_records
 from slam_core.io.trajectory import Trajectory
 from slam_core.map_bands import MapBands
 from slam_core.occupancy_grid import OccupancyGrid
@@ -41,8 +40,6 @@ class SlamRun:
     laser_mount: LaserMount = field(default_factory=LaserMount)
     #: Every update so far (a resumed session's first), to be saved and continued later.
     session: MappingSession | None = None
-    #: What the process that read the log took beside this one (``None`` if not known).
-    log_reader: ReaderMemory | None = None
 
     @property
     def grid(self) -> OccupancyGrid:
@@ -51,8 +48,8 @@ class SlamRun:
 
 def slam_from_log(log_path, config: RBPFConfig | None = None, seed: int = 0,
                   progress=None, laser_mount=None, resume: MappingSession | None = None) -> SlamRun:
-    """Feed every laser record of a log (parsed by a process of its own) to a fresh filter, then close
-    its loops; ``progress(fraction)`` is told how much of the log file was read. ``laser_mount`` (the
+    """Feed every laser record of a log to a fresh filter, then close its loops;
+    ``progress(fraction)`` is told how much of the log file was read. ``laser_mount`` (the
     laser's pose in the robot frame) defaults to the offset between the laser and odometry
     poses of the log's lines.
 
@@ -79,9 +76,8 @@ def slam_from_log(log_path, config: RBPFConfig | None = None, seed: int = 0,
     is_update: list[bool] = []
     slam: RBPFSlam | None = None
     started = time.perf_counter()
-    records = LaserRecordsInProcess(log_path, progress)
     try:
-        for record in records:
+        for record in laser_records(log_path, progress):
             odom = record.odom
             if resume is not None:
                 anchor = anchor or (odom.copy(), resume.end_pose)
@@ -114,7 +110,7 @@ def slam_from_log(log_path, config: RBPFConfig | None = None, seed: int = 0,
         session = _session_after(resume, config, mount, best.poses, best.odometry, update_scans,
                                  particle.poses[-1])
         return SlamRun(*filtered, particle, particle, slam.occupancy_map(), filter_time, filter_time,
-                       duration, None, warnings, mount, session, records.memory)
+                       duration, None, warnings, mount, session)
     del slam  # the particles' maps: the back end renders its own
     final, bands, closed, updates = close_filter_loops(config, mount, best, update_of_scan, is_update,
                                                        odometry, scans, resume)
@@ -122,7 +118,7 @@ def slam_from_log(log_path, config: RBPFConfig | None = None, seed: int = 0,
                              (resume.scans if resume else []) + update_scans, final[-1])
     wall = time.perf_counter() - started
     return SlamRun(*filtered, particle, Trajectory(stamps, final), bands, wall, filter_time, duration,
-                   closed, warnings, mount, session, records.memory)
+                   closed, warnings, mount, session)
 
 
 def _session_after(resumed: MappingSession | None, config: RBPFConfig, mount: LaserMount, poses: np.ndarray,
