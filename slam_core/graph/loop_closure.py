@@ -219,8 +219,8 @@ class Submaps:
                 return self._kept[s]
         sub = Submap(self.ranges[s], *self._args)
         size = sub.maps.nbytes()
-        with self._lock:
-            if self._kept_bytes + size <= KEPT_SUBMAP_BYTES:
+        with self._lock:  # (another thread may have built it too: the one kept is returned from then on)
+            if s not in self._kept and self._kept_bytes + size <= KEPT_SUBMAP_BYTES:
                 self._kept[s] = sub
                 self._kept_bytes += size
         return sub
