@@ -16,6 +16,10 @@ The particle filter's per-particle kernels are compiled serial and split over th
 :func:`split`: a ``parallel=True`` kernel links and optimises a copy of everything it calls two
 or three times more (the parallel body, its wrapper, the caller), which made the three filter
 kernels ~8 s of a cold compile (``benchmarks/RESULTS.md``, "cold compile").
+
+Kernels take no default arguments: numba's dispatcher matches a call's argument types in C, but
+a call from Python that leaves arguments out goes through its Python path every time (0.4 ms a
+call; 5,000 of the back end's searches on intel spent 2 s there).
 """
 
 from __future__ import annotations
@@ -32,11 +36,20 @@ JIT_OPTIONS = {"cache": True, "nogil": True, "error_model": "numpy"}
 
 
 def njit(*args, **kwargs):
-    """``numba.njit`` with the project's defaults (cache on, GIL released)."""
+    """``numba.njit`` with the project's defaults (cache on, GIL released); a kernel with default
+    arguments is refused (``TypeError``)."""
     options = {**JIT_OPTIONS, **kwargs}
     if args and callable(args[0]):
-        return numba.njit(**options)(args[0])
-    return numba.njit(*args, **options)
+        return numba.njit(**options)(_without_defaults(args[0]))
+    compile_ = numba.njit(*args, **options)
+    return lambda function: compile_(_without_defaults(function))
+
+
+def _without_defaults(function):
+    if function.__defaults__ or function.__kwdefaults__:
+        raise TypeError(f"kernel {function.__qualname__} has default arguments: "
+                        "pass them all (see slam_core.jit)")
+    return function
 
 
 _pool: ThreadPoolExecutor | None = None

@@ -41,3 +41,19 @@ def test_split_raises_what_a_chunk_raised():
 
     with pytest.raises(ValueError, match="last chunk"):
         split(kernel, 10)
+
+
+@pytest.mark.parametrize("options", [{}, {"inline": "always"}])
+def test_a_kernel_with_default_arguments_is_refused(options):
+    """A call that leaves arguments out takes numba's slow dispatch path every time."""
+    from slam_core.jit import njit
+
+    def kernel(a, b=1.0):
+        return a + b
+
+    def whole(a, b):
+        return a + b
+
+    with pytest.raises(TypeError, match="default arguments"):
+        njit(kernel) if not options else njit(**options)(kernel)
+    assert (njit(whole) if not options else njit(**options)(whole))(1.0, 2.0) == 3.0

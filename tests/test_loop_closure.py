@@ -26,6 +26,7 @@ from slam_core.graph.wide_search import field_pyramid, wide_search
 from slam_core.occupancy_grid import SensorModel
 from slam_core.rbpf.config import MatcherParams
 from slam_core.rbpf.correlative import (
+    NO_SKIP,
     _block_scores,
     _score,
     bounded_search,
@@ -65,7 +66,7 @@ def test_branch_and_bound_finds_the_exhaustive_searchs_optimum(seed, block):
     cells = int(rng.integers(3, 12))
     exhaustive = search(field, 0.05, 0.0, 0.0, px, py, pth, points, 0.1, 0.02, cells, 1e9, 1e9)
     bounded = bounded_search(field, max_pool(field, block), block, 0.05, 0.0, 0.0, px, py, pth, points,
-                             0.1, 0.02, cells)
+                             0.1, 0.02, cells, *NO_SKIP)
     assert abs(bounded[3] - exhaustive[3]) <= 1e-5 * max(1.0, exhaustive[3])
 
 

@@ -27,7 +27,7 @@ import numpy as np
 from slam_core.geometry import wrap_angle
 from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.rbpf.config import RBPFConfig
-from slam_core.rbpf.correlative import bounded_search, likelihood_window, max_pool
+from slam_core.rbpf.correlative import NO_SKIP, bounded_search, likelihood_window, max_pool
 from slam_core.rbpf.hit_render import SparseHits
 from slam_core.rbpf.laser_mount import LaserMount
 from slam_core.rbpf.scan_matcher import P_OCCUPIED, beam_rows, match
@@ -133,7 +133,8 @@ class Relocalizer:
                 angular_step: float, skip: np.ndarray | None = None) -> np.ndarray:
         """The correlative search's best pose; with ``skip``, the best one away from that pose."""
         res = self.maps.resolution
-        skipping = () if skip is None else (*skip, round(SKIP_M / res), round(SKIP_HEADING / angular_step))
+        skipping = NO_SKIP if skip is None else (*skip, round(SKIP_M / res),
+                                                 round(SKIP_HEADING / angular_step))
         x, y, th, _ = bounded_search(self.field, self.pooled, BLOCK_CELLS, res, self.corner[0],
                                      self.corner[1], around[0], around[1], around[2], points,
                                      angular_half, angular_step, linear_cells, *skipping)

@@ -57,7 +57,7 @@ from slam_core.graph.pose_graph import PoseGraph, chain_edges, optimize
 from slam_core.graph.wide_search import LEVELS, field_pyramid, wide_search
 from slam_core.occupancy_grid import SensorModel
 from slam_core.rbpf.config import MatcherParams
-from slam_core.rbpf.correlative import bounded_search, likelihood_window, max_pool
+from slam_core.rbpf.correlative import NO_SKIP, bounded_search, likelihood_window, max_pool
 from slam_core.rbpf.laser_mount import LaserMount
 from slam_core.rbpf.scan_matcher import P_OCCUPIED, beam_rows, match
 from slam_core.rbpf.tiled_map import TiledMaps
@@ -246,7 +246,7 @@ def _match(sub: Submap, start: np.ndarray, beams: np.ndarray, points: np.ndarray
         linear_cells = int(np.ceil(linear / res))
         sx, sy, sth, _ = bounded_search(sub.field, sub.pooled, BLOCK_CELLS, res, sub.field_corner[0],
                                         sub.field_corner[1], start[0], start[1], start[2], points,
-                                        angular, matcher.coarse_angular_step, linear_cells)
+                                        angular, matcher.coarse_angular_step, linear_cells, *NO_SKIP)
     else:
         start = _within_reach(sub, start, linear, matcher.coarse_range)
         if start is None:

@@ -22,6 +22,10 @@ import numpy as np
 from slam_core.jit import njit
 from slam_core.rbpf.scan_matcher import logodds_at
 
+#: :func:`bounded_search`'s last five arguments when no region is left out (passed, not defaulted:
+#: a call from Python that omits arguments takes numba's slow dispatch path, 0.4 ms, every time).
+NO_SKIP = (0.0, 0.0, 0.0, -1, 0)
+
 
 @njit
 def likelihood_window(table, lo, origin_x, origin_y, resolution, cx, cy, half_cells,
@@ -226,8 +230,7 @@ def max_pool(field, block):
 
 @njit
 def bounded_search(field, pooled, block, resolution, window_x, window_y, px, py, pth, points,
-                   angular_half, angular_step, linear_cells, skip_x=0.0, skip_y=0.0, skip_th=0.0,
-                   skip_cells=-1, skip_steps=0):
+                   angular_half, angular_step, linear_cells, skip_x, skip_y, skip_th, skip_cells, skip_steps):
     """The best pose ``(x, y, th, score)`` of an exhaustive search without prior, found by
     branch and bound (Hess et al., ICRA 2016, with one level).
 
@@ -235,9 +238,10 @@ def bounded_search(field, pooled, block, resolution, window_x, window_y, px, py,
     score of every offset in the block, so blocks are scored in the order of their bounds
     until no bound beats the best score found.
 
-    With ``skip_cells >= 0`` the poses within ``skip_cells`` cells (each axis) and ``skip_steps``
-    heading steps of ``(skip_x, skip_y, skip_th)`` are left out: the best pose elsewhere, the
-    runner-up to that one. Headings are compared around the full turn.
+    With ``skip_cells >= 0`` (:data:`NO_SKIP` leaves nothing out) the poses within ``skip_cells``
+    cells (each axis) and ``skip_steps`` heading steps of ``(skip_x, skip_y, skip_th)`` are left
+    out: the best pose elsewhere, the runner-up to that one. Headings are compared around the
+    full turn.
     """
     n_rot, cells_x, cells_y = rotated_endpoint_cells(px, py, pth, points, window_x, window_y, resolution,
                                                      angular_half, angular_step)
