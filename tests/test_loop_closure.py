@@ -28,9 +28,13 @@ from slam_core.rbpf.config import MatcherParams
 from slam_core.rbpf.correlative import (
     NO_SKIP,
     _block_scores,
+    _pop,
+    _push,
     _score,
+    bound_levels,
     bounded_search,
     max_pool,
+    pool_pairs,
     pooled_bound,
     pooled_bounds,
     search,
@@ -65,7 +69,7 @@ def test_branch_and_bound_finds_the_exhaustive_searchs_optimum(seed, block):
     px, py, pth = rng.uniform(2.5, 4.5), rng.uniform(2.5, 3.5), rng.uniform(-np.pi, np.pi)
     cells = int(rng.integers(3, 12))
     exhaustive = search(field, 0.05, 0.0, 0.0, px, py, pth, points, 0.1, 0.02, cells, 1e9, 1e9)
-    bounded = bounded_search(field, max_pool(field, block), block, 0.05, 0.0, 0.0, px, py, pth, points,
+    bounded = bounded_search(field, *bound_levels(field, block), block, 0.05, 0.0, 0.0, px, py, pth, points,
                              0.1, 0.02, cells, *NO_SKIP)
     assert abs(bounded[3] - exhaustive[3]) <= 1e-5 * max(1.0, exhaustive[3])
 
@@ -87,8 +91,8 @@ def test_branch_and_bound_skips_a_region_and_finds_the_best_pose_outside_it(seed
               for dy in range(-cells, cells + 1) for dx in range(-cells, cells + 1)
               if not (abs(dx - sx[0]) <= skip_cells and abs(dy - sx[1]) <= skip_cells
                       and abs(r - sr) <= skip_steps)]
-    _, _, _, runner_up = bounded_search(field, max_pool(field, 3), 3, 0.05, 0.0, 0.0, px, py, pth, points,
-                                        n_rot * step, step, cells, *skip, skip_cells, skip_steps)
+    _, _, _, runner_up = bounded_search(field, *bound_levels(field, 3), 3, 0.05, 0.0, 0.0, px, py, pth,
+                                        points, n_rot * step, step, cells, *skip, skip_cells, skip_steps)
     assert abs(runner_up - max(scores)) <= 1e-5 * max(1.0, max(scores))
 
 
@@ -122,6 +126,28 @@ def test_max_pool_is_the_maximum_over_each_block():
     for y in range(9):
         for x in range(11):
             assert pooled[y, x] == field[y:y + 3, x:x + 3].max()
+
+
+@pytest.mark.parametrize("block", [1, 2, 4])
+def test_pooling_pairs_of_blocks_pools_over_blocks_twice_as_wide(block):
+    rng = np.random.default_rng(block)
+    field = rng.random((13, 17)).astype(np.float32)
+    assert np.array_equal(pool_pairs(max_pool(field, block), block), max_pool(field, 2 * block))
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.lists(st.tuples(st.integers(0, 5), st.integers(0, 50)), min_size=1, max_size=60,
+                unique_by=lambda e: e[1]))
+def test_the_search_heap_gives_the_largest_bound_first_then_the_lowest_code(entries):
+    keys, codes = np.empty(len(entries)), np.empty(len(entries), np.int64)
+    size = 0
+    for key, code in entries:
+        size = _push(keys, codes, size, float(key), code)
+    out = []
+    while size:
+        out.append((keys[0], codes[0]))
+        size = _pop(keys, codes, size)
+    assert out == sorted(((float(k), c) for k, c in entries), key=lambda e: (-e[0], e[1]))
 
 
 def test_loops_close_on_a_drifted_trajectory():

@@ -27,7 +27,7 @@ import numpy as np
 from slam_core.geometry import wrap_angle
 from slam_core.occupancy_grid import OccupancyGrid
 from slam_core.rbpf.config import RBPFConfig
-from slam_core.rbpf.correlative import NO_SKIP, bounded_search, likelihood_window, max_pool
+from slam_core.rbpf.correlative import NO_SKIP, bound_levels, bounded_search, likelihood_window
 from slam_core.rbpf.hit_render import SparseHits
 from slam_core.rbpf.laser_mount import LaserMount
 from slam_core.rbpf.scan_matcher import P_OCCUPIED, beam_rows, match
@@ -82,7 +82,7 @@ class Relocalizer:
                                        self.centre[1], self.half, self.params[P_OCCUPIED],
                                        matcher.coarse_sigma, matcher.coarse_reach_cells)
         self.corner = m.origin + (self.centre - self.half) * res
-        self.pooled = max_pool(self.field, BLOCK_CELLS)
+        self.pooled = bound_levels(self.field, BLOCK_CELLS)
 
     def locate(self, scan: Scan, guess) -> Fix | None:
         """The robot's pose in the map from ``scan`` (see the module docstring), or ``None``."""
@@ -135,7 +135,7 @@ class Relocalizer:
         res = self.maps.resolution
         skipping = NO_SKIP if skip is None else (*skip, round(SKIP_M / res),
                                                  round(SKIP_HEADING / angular_step))
-        x, y, th, _ = bounded_search(self.field, self.pooled, BLOCK_CELLS, res, self.corner[0],
+        x, y, th, _ = bounded_search(self.field, *self.pooled, BLOCK_CELLS, res, self.corner[0],
                                      self.corner[1], around[0], around[1], around[2], points,
                                      angular_half, angular_step, linear_cells, *skipping)
         return np.array([x, y, wrap_angle(th)])

@@ -57,7 +57,7 @@ from slam_core.graph.pose_graph import PoseGraph, chain_edges, optimize
 from slam_core.graph.wide_search import LEVELS, field_pyramid, wide_search
 from slam_core.occupancy_grid import SensorModel
 from slam_core.rbpf.config import MatcherParams
-from slam_core.rbpf.correlative import NO_SKIP, bounded_search, likelihood_window, max_pool
+from slam_core.rbpf.correlative import NO_SKIP, bound_levels, bounded_search, likelihood_window
 from slam_core.rbpf.laser_mount import LaserMount
 from slam_core.rbpf.scan_matcher import P_OCCUPIED, beam_rows, match
 from slam_core.rbpf.tiled_map import TiledMaps
@@ -165,9 +165,10 @@ class Submap:
                                  self._centre[1], self._half, *self._field_args)
 
     @cached_property
-    def pooled(self) -> np.ndarray:
-        """The field max-pooled over blocks of ``BLOCK_CELLS``."""
-        return max_pool(self.field, BLOCK_CELLS)
+    def pooled(self) -> tuple[np.ndarray, np.ndarray]:
+        """The field max-pooled over blocks of ``BLOCK_CELLS`` and of twice that (the bounds of the
+        narrow search)."""
+        return bound_levels(self.field, BLOCK_CELLS)
 
     def pyramid(self) -> np.ndarray:
         """The field max-pooled at every level of the wide search (built when first asked for)."""
@@ -176,7 +177,7 @@ class Submap:
         return self._pyramid
 
     def release_fields(self) -> None:
-        """Let the field, its pooled copy and the pyramid go (a search batch holds all of a submap's
+        """Let the field, its pooled copies and the pyramid go (a search batch holds all of a submap's
         queries, so the next one needing them is a later round; the maps stay)."""
         self.__dict__.pop("field", None)
         self.__dict__.pop("pooled", None)
@@ -244,7 +245,7 @@ def _match(sub: Submap, start: np.ndarray, beams: np.ndarray, points: np.ndarray
     res = sub.maps.resolution
     if linear <= config.linear_window:
         linear_cells = int(np.ceil(linear / res))
-        sx, sy, sth, _ = bounded_search(sub.field, sub.pooled, BLOCK_CELLS, res, sub.field_corner[0],
+        sx, sy, sth, _ = bounded_search(sub.field, *sub.pooled, BLOCK_CELLS, res, sub.field_corner[0],
                                         sub.field_corner[1], start[0], start[1], start[2], points,
                                         angular, matcher.coarse_angular_step, linear_cells, *NO_SKIP)
     else:

@@ -229,14 +229,17 @@ def max_pool(field, block):
 
 
 @njit
-def bounded_search(field, pooled, block, resolution, window_x, window_y, px, py, pth, points,
+def bounded_search(field, pooled, coarse, block, resolution, window_x, window_y, px, py, pth, points,
                    angular_half, angular_step, linear_cells, skip_x, skip_y, skip_th, skip_cells, skip_steps):
     """The best pose ``(x, y, th, score)`` of an exhaustive search without prior, found by
-    branch and bound (Hess et al., ICRA 2016, with one level).
+    branch and bound (Hess et al., ICRA 2016, with two levels).
 
     ``pooled`` is ``max_pool(field, block)``: its sum at a block's first offset bounds the
-    score of every offset in the block, so blocks are scored in the order of their bounds
-    until no bound beats the best score found.
+    score of every offset in the block; ``coarse`` is ``pool_pairs(pooled, block)``, which
+    bounds blocks twice as wide the same way. Blocks come out of a heap, the largest bound
+    first (ties: the lower rotation, row, column, wide blocks before narrow ones): a wide one
+    puts its four narrow ones in, a narrow one has its offsets scored, until no bound beats
+    the best score found.
 
     With ``skip_cells >= 0`` (:data:`NO_SKIP` leaves nothing out) the poses within ``skip_cells``
     cells (each axis) and ``skip_steps`` heading steps of ``(skip_x, skip_y, skip_th)`` are left
@@ -248,24 +251,41 @@ def bounded_search(field, pooled, block, resolution, window_x, window_y, px, py,
     rotations = 2 * n_rot + 1
     width = 2 * linear_cells + 1
     blocks = (width + block - 1) // block
-    bounds = np.empty(rotations * blocks * blocks)
-    by_rotation = bounds.reshape((rotations, blocks, blocks))
+    wide = (width + 2 * block - 1) // (2 * block)
+    per_level = rotations * blocks * blocks  # codes: level * per_level + (r * blocks + by) * blocks + bx
+    keys = np.empty(5 * rotations * wide * wide)  # each wide block is put in once and opened once
+    codes = np.empty(keys.shape[0], np.int64)
+    size = 0
+    wide_bounds = np.empty((wide, wide))
     for r in range(rotations):
-        pooled_bounds(pooled, block, cells_x[r], cells_y[r], -linear_cells, by_rotation[r])
-    order = np.argsort(-bounds)
+        pooled_bounds(coarse, 2 * block, cells_x[r], cells_y[r], -linear_cells, wide_bounds)
+        for by in range(wide):
+            for bx in range(wide):
+                size = _push(keys, codes, size, wide_bounds[by, bx], (r * blocks + by) * blocks + bx)
     best = -1.0
     bx_best, by_best, r_best = 0, 0, n_rot
     skip_dx = round((skip_x - px) / resolution)
     skip_dy = round((skip_y - py) / resolution)
     turn = round(2.0 * np.pi / angular_step)
     scores = np.empty((block, block))
-    for k in range(order.shape[0]):
-        idx = order[k]
-        if bounds[idx] <= best:
+    while size > 0:
+        bound, code = keys[0], codes[0]
+        size = _pop(keys, codes, size)
+        if bound <= best:
             break
-        r = idx // (blocks * blocks)
-        by = (idx // blocks) % blocks
-        bx = idx % blocks
+        level = code // per_level
+        r = (code % per_level) // (blocks * blocks)
+        by = (code // blocks) % blocks
+        bx = code % blocks
+        if level == 0:  # a wide block: its narrow blocks go in
+            for k in range(4):
+                fy, fx = 2 * by + k // 2, 2 * bx + k % 2
+                if fy < blocks and fx < blocks:
+                    narrow = pooled_bound(pooled, block, cells_x[r], cells_y[r], fx * block - linear_cells,
+                                          fy * block - linear_cells)
+                    if narrow > best:
+                        size = _push(keys, codes, size, narrow, per_level + (r * blocks + fy) * blocks + fx)
+            continue
         dx0 = bx * block - linear_cells
         dy0 = by * block - linear_cells
         in_block = scores[:min(block, width - by * block), :min(block, width - bx * block)]
@@ -283,3 +303,67 @@ def bounded_search(field, pooled, block, resolution, window_x, window_y, px, py,
                     bx_best, by_best, r_best = dx, dy, r
     return (px + bx_best * resolution, py + by_best * resolution, pth + (r_best - n_rot) * angular_step,
             best)
+
+
+@njit
+def _first(keys, codes, a, b):
+    """Whether heap entry ``a`` comes out before ``b``: the larger key, then the smaller code."""
+    return keys[a] > keys[b] or (keys[a] == keys[b] and codes[a] < codes[b])
+
+
+@njit
+def _push(keys, codes, size, key, code):
+    """Put ``(key, code)`` into the heap of the first ``size`` entries; the new size."""
+    i = size
+    keys[i], codes[i] = key, code
+    while i > 0:
+        parent = (i - 1) // 2
+        if not _first(keys, codes, i, parent):
+            break
+        keys[i], keys[parent] = keys[parent], keys[i]
+        codes[i], codes[parent] = codes[parent], codes[i]
+        i = parent
+    return size + 1
+
+
+@njit
+def _pop(keys, codes, size):
+    """Take the first entry out of the heap of ``size`` entries (read it at 0 before); the new size."""
+    size -= 1
+    keys[0], codes[0] = keys[size], codes[size]
+    i = 0
+    while True:
+        first = i
+        for child in (2 * i + 1, 2 * i + 2):
+            if child < size and _first(keys, codes, child, first):
+                first = child
+        if first == i:
+            return size
+        keys[i], keys[first] = keys[first], keys[i]
+        codes[i], codes[first] = codes[first], codes[i]
+        i = first
+
+
+@njit
+def pool_pairs(pooled, block):
+    """``max_pool(field, 2 * block)`` from ``pooled = max_pool(field, block)``: the largest of
+    ``pooled`` at a cell and ``block`` cells right, up, and both."""
+    size_y, size_x = pooled.shape
+    out = np.zeros((size_y, size_x), np.float32)
+    for y in range(size_y):
+        for x in range(size_x):
+            v = pooled[y, x]
+            if x + block < size_x:
+                v = max(v, pooled[y, x + block])
+            if y + block < size_y:
+                v = max(v, pooled[y + block, x])
+                if x + block < size_x:
+                    v = max(v, pooled[y + block, x + block])
+            out[y, x] = v
+    return out
+
+
+def bound_levels(field: np.ndarray, block: int) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`bounded_search`'s ``pooled`` and ``coarse`` for ``field`` and ``block``."""
+    pooled = max_pool(field, block)
+    return pooled, pool_pairs(pooled, block)
