@@ -253,7 +253,7 @@ def bounded_search(field, pooled, coarse, block, resolution, window_x, window_y,
     blocks = (width + block - 1) // block
     wide = (width + 2 * block - 1) // (2 * block)
     per_level = rotations * blocks * blocks  # codes: level * per_level + (r * blocks + by) * blocks + bx
-    keys = np.empty(5 * rotations * wide * wide)  # each wide block is put in once and opened once
+    keys = np.empty(rotations * wide * wide + 64)  # grown when opened blocks fill it
     codes = np.empty(keys.shape[0], np.int64)
     size = 0
     wide_bounds = np.empty((wide, wide))
@@ -278,6 +278,8 @@ def bounded_search(field, pooled, coarse, block, resolution, window_x, window_y,
         by = (code // blocks) % blocks
         bx = code % blocks
         if level == 0:  # a wide block: its narrow blocks go in
+            if size + 4 > keys.shape[0]:
+                keys, codes = _grown(keys, codes)
             for k in range(4):
                 fy, fx = 2 * by + k // 2, 2 * bx + k % 2
                 if fy < blocks and fx < blocks:
@@ -309,6 +311,16 @@ def bounded_search(field, pooled, coarse, block, resolution, window_x, window_y,
 def _first(keys, codes, a, b):
     """Whether heap entry ``a`` comes out before ``b``: the larger key, then the smaller code."""
     return keys[a] > keys[b] or (keys[a] == keys[b] and codes[a] < codes[b])
+
+
+@njit
+def _grown(keys, codes):
+    """The heap's arrays with twice the room."""
+    more_keys = np.empty(2 * keys.shape[0])
+    more_codes = np.empty(2 * keys.shape[0], np.int64)
+    more_keys[:keys.shape[0]] = keys
+    more_codes[:keys.shape[0]] = codes
+    return more_keys, more_codes
 
 
 @njit
