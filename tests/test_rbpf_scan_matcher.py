@@ -4,6 +4,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from slam_core.geometry import relative
 from slam_core.occupancy_grid import OccupancyGrid
@@ -19,6 +21,7 @@ from slam_core.rbpf.scan_matcher import (
     P_PRIOR_TH,
     P_PRIOR_XY,
     _solve3,
+    beam_rows,
     local_line,
     logodds_at,
     match,
@@ -26,6 +29,7 @@ from slam_core.rbpf.scan_matcher import (
     surface_point,
 )
 from slam_core.rbpf.tiled_map import TILE, TiledMaps
+from slam_core.scan import Scan
 from tests.synthetic_room import room_scan
 
 TRUE_POSE = np.array([0.3, 0.2, 0.1])
@@ -252,3 +256,29 @@ def test_surface_points_read_from_the_tile_parts_are_the_dense_mean_endpoints(ro
                 ox, oy, res = room_map.origin[0], room_map.origin[1], room_map.resolution
                 assert (x, y) == (ox + gx * res + sums[iy, ix, 0] / n, oy + gy * res + sums[iy, ix, 1] / n)
     assert found_any > 100
+
+
+def _rows_by_numpy(scan, max_range, max_beams):
+    """The rows as numpy's own functions give them: echoes picked at ``np.linspace`` rounded."""
+    r = scan.ranges
+    idx = np.flatnonzero(scan.valid & (r <= max_range))
+    if len(idx) > max_beams:
+        idx = idx[np.linspace(0, len(idx) - 1, max_beams).round().astype(int)]
+    a = scan.angles[idx]
+    return np.column_stack([r[idx] * np.cos(a), r[idx] * np.sin(a), np.cos(a), np.sin(a)])
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 10_000), st.integers(1, 400), st.sampled_from([0, 1, 2, 3, 90, 180, 720]),
+       st.floats(0.5, 90.0))
+def test_beam_rows_are_numpys_rows_to_the_bit(seed, n, max_beams, max_range):
+    """Echoes, misses (max range, inf), non-measurements (nan, below the minimum) mixed."""
+    rng = np.random.default_rng(seed)
+    ranges = rng.uniform(0.0, 85.0, n)
+    ranges[rng.random(n) < 0.1] = np.inf
+    ranges[rng.random(n) < 0.1] = np.nan
+    ranges[rng.random(n) < 0.1] = 81.9
+    scan = Scan(np.sort(rng.uniform(-np.pi, np.pi, n)), ranges, 0.05, 81.0)
+    rows = beam_rows(scan, max_range, max_beams)
+    assert rows.flags.c_contiguous
+    assert np.array_equal(rows, _rows_by_numpy(scan, max_range, max_beams))

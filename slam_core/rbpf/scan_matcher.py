@@ -218,14 +218,35 @@ def _remembered_residual(table, lo, hits, origin_x, origin_y, resolution, c, s, 
 
 def beam_rows(scan, max_range: float, max_beams: int) -> np.ndarray:
     """Rows ``(px, py, ux, uy)`` (endpoint and unit direction, sensor frame) of up to
-    ``max_beams`` evenly spread echoes no longer than ``max_range``."""
-    r = scan.ranges
-    idx = np.flatnonzero(scan.valid & (r <= max_range))
-    if len(idx) > max_beams:
-        idx = idx[np.linspace(0, len(idx) - 1, max_beams).round().astype(int)]
-    a = scan.angles[idx]
-    ux, uy = np.cos(a), np.sin(a)
-    return np.ascontiguousarray(np.column_stack([r[idx] * ux, r[idx] * uy, ux, uy]))
+    ``max_beams`` evenly spread echoes no longer than ``max_range`` (those nearest
+    ``np.linspace(0, echoes - 1, max_beams)``, halves to even)."""
+    return _beam_rows(scan.ranges, np.cos(scan.angles), np.sin(scan.angles), scan.range_min, scan.range_max,
+                      float(max_range), int(max_beams))
+
+
+@njit
+def _beam_rows(ranges, cos, sin, range_min, range_max, max_range, max_beams):
+    n = ranges.shape[0]
+    echoes = np.empty(n, np.int64)
+    m = 0
+    for i in range(n):
+        r = ranges[i]
+        if np.isfinite(r) and range_min <= r < range_max and r > 0.0 and r <= max_range:
+            echoes[m] = i
+            m += 1
+    count = min(m, max(max_beams, 0))
+    rows = np.empty((count, 4))
+    step = (m - 1) / (count - 1) if count > 1 else 0.0
+    for k in range(count):
+        j = k
+        if count < m:  # as np.linspace(0, m - 1, count): k * step, the last m - 1, rounded half to even
+            j = m - 1 if 0 < k == count - 1 else int(np.rint(k * step))
+        i = echoes[j]
+        rows[k, 0] = ranges[i] * cos[i]
+        rows[k, 1] = ranges[i] * sin[i]
+        rows[k, 2] = cos[i]
+        rows[k, 3] = sin[i]
+    return rows
 
 
 @njit
