@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from slam_core.jit import njit
-from slam_core.rbpf.correlative import pooled_bound, pooled_bounds, rotated_endpoint_cells
+from slam_core.rbpf.correlative import pool_pairs_into, pooled_bound, pooled_bounds, rotated_endpoint_cells
 
 #: Levels of the pyramid above the field (blocks of up to ``2 ** LEVELS`` cells).
 LEVELS = 6
@@ -28,20 +28,7 @@ def field_pyramid(field, levels):
     out = np.zeros((levels + 1, size_y, size_x), np.float32)
     out[0] = field
     for k in range(1, levels + 1):
-        h = 1 << (k - 1)
-        below = out[k - 1]
-        level = out[k]
-        for y in range(size_y):
-            for x in range(size_x):
-                v = below[y, x]
-                if x + h < size_x and below[y, x + h] > v:
-                    v = below[y, x + h]
-                if y + h < size_y:
-                    if below[y + h, x] > v:
-                        v = below[y + h, x]
-                    if x + h < size_x and below[y + h, x + h] > v:
-                        v = below[y + h, x + h]
-                level[y, x] = v
+        pool_pairs_into(out[k - 1], 1 << (k - 1), out[k])
     return out
 
 

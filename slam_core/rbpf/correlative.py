@@ -358,10 +358,17 @@ def _pop(keys, codes, size):
 
 @njit
 def pool_pairs(pooled, block):
-    """``max_pool(field, 2 * block)`` from ``pooled = max_pool(field, block)``: the largest of
-    ``pooled`` at a cell and ``block`` cells right, up, and both."""
+    """``max_pool(field, 2 * block)`` from ``pooled = max_pool(field, block)``."""
+    out = np.zeros(pooled.shape, np.float32)
+    pool_pairs_into(pooled, block, out)
+    return out
+
+
+@njit
+def pool_pairs_into(pooled, block, out):
+    """``out[y, x]``: the largest of ``pooled`` at ``(y, x)`` and ``block`` cells right, up, and both
+    (cells past the edges count 0; the values are not negative)."""
     size_y, size_x = pooled.shape
-    out = np.zeros((size_y, size_x), np.float32)
     for y in range(size_y):
         for x in range(size_x):
             v = pooled[y, x]
@@ -372,7 +379,6 @@ def pool_pairs(pooled, block):
                 if x + block < size_x:
                     v = max(v, pooled[y + block, x + block])
             out[y, x] = v
-    return out
 
 
 def bound_levels(field: np.ndarray, block: int) -> tuple[np.ndarray, np.ndarray]:
