@@ -220,18 +220,17 @@ def beam_rows(scan, max_range: float, max_beams: int) -> np.ndarray:
     """Rows ``(px, py, ux, uy)`` (endpoint and unit direction, sensor frame) of up to
     ``max_beams`` evenly spread echoes no longer than ``max_range`` (those nearest
     ``np.linspace(0, echoes - 1, max_beams)``, halves to even)."""
-    return _beam_rows(scan.ranges, np.cos(scan.angles), np.sin(scan.angles), scan.range_min, scan.range_max,
-                      float(max_range), int(max_beams))
+    return _beam_rows(scan.ranges, scan.valid, np.cos(scan.angles), np.sin(scan.angles), float(max_range),
+                      int(max_beams))
 
 
 @njit
-def _beam_rows(ranges, cos, sin, range_min, range_max, max_range, max_beams):
+def _beam_rows(ranges, valid, cos, sin, max_range, max_beams):
     n = ranges.shape[0]
     echoes = np.empty(n, np.int64)
     m = 0
     for i in range(n):
-        r = ranges[i]
-        if np.isfinite(r) and range_min <= r < range_max and r > 0.0 and r <= max_range:
+        if valid[i] and ranges[i] <= max_range:
             echoes[m] = i
             m += 1
     count = min(m, max(max_beams, 0))
