@@ -54,6 +54,32 @@ def test_an_odometry_that_froze_or_caught_up_is_no_witness():
         step_disagreement(filtered, filtered[:-1], 0.1)
 
 
+def test_the_step_that_ends_a_freeze_is_no_witness_however_short():
+    """mit-csail's pattern: updates 0.6 m apart, then forced ones at every 0.22 m scan while the odometry
+    read nothing for two and then 0.83 m in one, less than twice its mean step."""
+    steps = np.array([[0.6, 0.0, 0.0]] * 8 + [[0.22, 0.0, 0.0]] * 3 + [[0.6, 0.0, 0.0]] * 4)
+    filtered = chained((0, 0, 0), steps)
+    read = steps.copy()
+    read[8:10] = 0.0
+    read[10] = [0.83, 0.0, 0.0]
+    read[13] = [0.83, 0.0, 0.0]  # as long, with no freeze before: the filter lost 0.23 m
+    got = step_disagreement(filtered, chained((0, 0, 0), read), 0.1)
+    assert np.all(got[8:11] == 0.0)
+    assert got[13] == pytest.approx(0.13)
+    assert np.all(np.delete(got, 13) == 0.0)
+
+
+def test_a_robot_that_stood_still_is_witnessed_as_it_drives_off():
+    """Odometry that read nothing because the robot (and the filter) did not move froze nothing."""
+    steps = np.array([[0.5, 0.0, 0.0]] * 5 + [[0.0, 0.0, 0.0]] * 3 + [[0.5, 0.0, 0.0]] * 4)
+    filtered = chained((0, 0, 0), steps)
+    read = steps.copy()
+    read[8] = [0.8, 0.0, 0.0]  # the first step after the stop: the filter lost 0.3 m
+    got = step_disagreement(filtered, chained((0, 0, 0), read), 0.1)
+    assert got[8] == pytest.approx(0.2)
+    assert np.all(np.delete(got, 8) == 0.0)
+
+
 def test_a_filter_step_that_slid_between_loop_edges_is_put_right_with_the_odometry():
     """The second lap retraces the first; half way along it the filter's step slid 0.5 m across.
     Without the odometry the chain trusts that step and the retraced lap stays apart; with an
