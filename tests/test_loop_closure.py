@@ -14,8 +14,8 @@ from slam_core.graph import pose_graph
 from slam_core.graph.config import LoopClosureConfig
 from slam_core.graph.loop_closure import (
     Submap,
-    _chain_information,
     _within_reach,
+    _witnessed_chain,
     close_loops,
     loop_edge,
     robust_solve,
@@ -405,7 +405,7 @@ def test_a_warm_started_solve_reaches_the_cold_solves_optimum_in_fewer_steps(mon
     assert np.allclose(start[:140], memory.optimised)  # the old part where the last solve put it
     # the new part moved rigidly with the last old update
     assert np.allclose(relative(start[139], start[140:]), relative(bent[139], bent[140:]))
-    chain = _chain_information(bent, CONFIG)
+    _, chain = _witnessed_chain(bent, CONFIG)
     edges = dict(memory.edges)
     steps.clear()
     cold, _ = robust_solve(bent, chain, edges, CONFIG.outlier_chi2)
@@ -445,7 +445,7 @@ def test_a_corridors_loop_edge_moves_the_robot_across_the_corridor_not_along_it(
     """A loop edge from a match in a corridor running north (known across it, in x, not along
     it): the solve takes the edge's x and leaves y to the chain."""
     poses = np.array([[0.0, 0.0, np.pi / 2], [0.0, 1.0, np.pi / 2], [0.0, 2.0, np.pi / 2]])
-    chain = _chain_information(poses, CONFIG)
+    _, chain = _witnessed_chain(poses, CONFIG)
     info = np.diag([1e6, 1e-2, 1e4])  # in the map's axes: across the corridor is x
     z, edge_info = loop_edge(poses[0], np.array([0.3, 2.5, np.pi / 2]), info)
     solved, dropped = robust_solve(poses, chain, {(0, 2): (z, edge_info)}, outlier_chi2=1e12)

@@ -1,5 +1,6 @@
 """The chain's steps loosened where the filter and the odometry disagree, and not where the
-odometry froze or caught up; a filter step that slid is then put right by the loops around it."""
+odometry froze or caught up; a filter step that slid is then put right by the loops around it, and
+by the odometry's step where no loop ties it."""
 
 import numpy as np
 import pytest
@@ -9,7 +10,7 @@ from hypothesis import strategies as st
 from slam_core.geometry import compose, relative
 from slam_core.graph.config import LoopClosureConfig
 from slam_core.graph.loop_closure import close_loops
-from slam_core.graph.odometry_witness import step_disagreement
+from slam_core.graph.odometry_witness import step_disagreement, witnessed_steps
 from tests.large_world import drifted, ring_tour, ring_world
 from tests.test_loop_closure_drift import scans_along
 
@@ -130,3 +131,56 @@ def test_a_filter_step_that_jumped_beyond_the_narrow_window_is_searched_as_wide_
     after = np.hypot(*(result.poses[k + 1:, :2] - truth[k + 1:, :2]).T)
     assert np.hypot(*(filtered[k + 1:, :2] - truth[k + 1:, :2]).T).min() > 0.85
     assert after.max() < 0.1, after
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 10 ** 6), sigma=st.floats(0.01, 1.0))
+def test_a_heard_step_is_the_least_squares_mean_of_the_two_steps_and_no_other_step_moves(seed, sigma):
+    """Oracle: the position minimising both steps' squared errors over their variances, solved as a
+    weighted least-squares problem; its variance is the inverse of the summed information."""
+    rng = np.random.default_rng(seed)
+    n = 12
+    steps = rng.normal(0, 1, (n, 3))
+    variances = rng.uniform(1e-4, 0.5, n)
+    odometry = steps + rng.normal(0, 0.5, (n, 3))
+    loosen = np.where(rng.random(n) < 0.5, rng.uniform(0.01, 1.0, n), 0.0)
+    got, got_var = witnessed_steps(steps, variances, odometry, loosen, sigma)
+    for k in range(n):
+        if loosen[k] == 0.0:
+            assert np.array_equal(got[k], steps[k]) and got_var[k] == variances[k]
+            continue
+        weights = np.sqrt([1.0 / variances[k], 1.0 / sigma ** 2])
+        design = np.kron(weights[:, None], np.eye(2))
+        target = np.concatenate([steps[k, :2] * weights[0], odometry[k, :2] * weights[1]])
+        expected = np.linalg.lstsq(design, target, rcond=None)[0]
+        assert got[k, :2] == pytest.approx(expected, abs=1e-9)
+        assert got[k, 2] == steps[k, 2]
+        assert got_var[k] == pytest.approx(1.0 / (1.0 / variances[k] + 1.0 / sigma ** 2), rel=1e-9)
+
+
+def test_a_filter_step_that_slid_where_no_loop_ties_it_follows_the_odometry():
+    """freiburg-campus's slide: along a straight first stretch of the ring (no place is passed twice,
+    so no loop edge can bend the chain) the filter's step fell 0.8 m short. The chain trusts it
+    without the odometry; with an odometry that read the step, the step is the odometry's to within
+    the two steps' weights, and every other step stays the filter's."""
+    truth = ring_tour()[:100]
+    scans = scans_along(truth, ring_world())
+    k = 40
+    steps = relative(truth[:-1], truth[1:])
+    steps[k, 0] -= 0.8
+    filtered = chained(truth[0], steps)
+    rng = np.random.default_rng(2)
+    odometry = chained(truth[0], relative(truth[:-1], truth[1:]) + rng.normal(0, 0.01, (len(truth) - 1, 3))
+                       * np.array([1.0, 1.0, 0.2]))
+
+    def step_error(poses):
+        d = relative(poses[:-1], poses[1:]) - relative(truth[:-1], truth[1:])
+        return np.hypot(d[:, 0], d[:, 1])
+
+    trusted, _ = close_loops(filtered, scans, CONFIG)
+    witnessed, _ = close_loops(filtered, scans, CONFIG, odometry=odometry)
+    assert trusted.loop_edges == witnessed.loop_edges == 0
+    assert step_error(trusted.poses)[k] > 0.75
+    assert step_error(witnessed.poses)[k] < 0.1
+    others = np.delete(relative(witnessed.poses[:-1], witnessed.poses[1:]) - steps, k, axis=0)
+    assert np.abs(others).max() < 1e-6

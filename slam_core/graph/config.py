@@ -50,7 +50,9 @@ class LoopClosureConfig:
 
     Where the filter's step and the wheel odometry's disagree by more than
     ``witness_tolerance``, the step's position variance gains the square of the excess
-    (:mod:`slam_core.graph.odometry_witness`), so that the loop edges can bend the chain there.
+    (:mod:`slam_core.graph.odometry_witness`), so that the loop edges can bend the chain there, and
+    the step becomes the product of that and the odometry's step, whose standard error is
+    ``witness_sigma``.
     Loop edges into one submap from nearby updates whose implied motion lands more than
     ``consistency_tolerance`` from both the filter's and the odometry's steps, against most
     such neighbours, are dropped before the solve (:mod:`slam_core.graph.edge_consistency`).
@@ -86,4 +88,5 @@ class LoopClosureConfig:
     wide_confirm_fit: float = 0.7
     wide_confirmations: int = 2
     witness_tolerance: float = 0.1
+    witness_sigma: float = 0.2
     consistency_tolerance: float = 0.5

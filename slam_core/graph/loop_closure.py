@@ -23,7 +23,8 @@ trajectory at its filter updates and
 3. drops loop edges that imply a motion, against the edges of nearby updates into the
    same submap, that neither the filter nor the odometry saw
    (:mod:`slam_core.graph.edge_consistency`); optimises the pose graph of the loop edges
-   and the chain of the filter's own steps (:mod:`slam_core.graph.pose_graph`,
+   and the chain of the filter's own steps (heard against the odometry's where the two
+   disagree: :mod:`slam_core.graph.odometry_witness`; :mod:`slam_core.graph.pose_graph`,
    Huber-robust on loop edges), drops loop edges that still disagree, optimises
    again; the next round searches
    again from the optimised poses, which finds the closures the drift hid (a pair
@@ -52,7 +53,7 @@ import numpy as np
 from slam_core.geometry import compose, paced_pose, relative, wrap_angle
 from slam_core.graph.config import LoopClosureConfig
 from slam_core.graph.edge_consistency import inconsistent_edges
-from slam_core.graph.odometry_witness import step_disagreement
+from slam_core.graph.odometry_witness import step_disagreement, witnessed_steps
 from slam_core.graph.pose_graph import PoseGraph, chain_edges, optimize
 from slam_core.graph.wide_search import LEVELS, field_pyramid, wide_search
 from slam_core.occupancy_grid import SensorModel
@@ -312,7 +313,7 @@ def close_loops(poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig 
     reach = min(matcher.max_range, model.usable_range)
     loosen = None if odometry is None else step_disagreement(result.poses, odometry, config.witness_tolerance)
     witnessed = None if odometry is None else mount.laser_poses(np.asarray(odometry, dtype=float))
-    chain = _chain_information(poses, config, loosen)
+    chain_poses, chain = _witnessed_chain(poses, config, loosen, witnessed)
     drift = ChainDrift(poses, path, config, sparse_step_scales(scans, reach, matcher), loosen)
     estimate = poses.copy()
     first = 0  # the first update searched
@@ -397,14 +398,17 @@ def close_loops(poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig 
 
     settled: list[set] = []  # the edges of the last solve, if it dropped none
 
+    solved = [False]
+
     def solve(estimate: np.ndarray):
         if settled and settled[0] == edges.keys():
             return estimate  # the same graph (it depends on nothing else): the same optimum, no drop
-        estimate, outliers = robust_solve(poses, chain, edges, config.outlier_chi2, start=estimate)
+        estimate, outliers = robust_solve(chain_poses, chain, edges, config.outlier_chi2, start=estimate)
         for key in outliers:
             del edges[key]
         dropped.update(outliers)
         settled[:] = [] if outliers else [set(edges)]
+        solved[0] = True
         return estimate
 
     if edges:
@@ -432,6 +436,8 @@ def close_loops(poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig 
                     tried_wide.add((s, q))
                     pairs.setdefault(s, []).append((q, linear, angular, True))
         estimate = search_and_solve(pairs, estimate)
+    if not solved[0] and chain_poses is not poses:  # nothing searched: the chain as the odometry heard it
+        estimate = solve(estimate)
     result.poses = mount.robot_poses(estimate)
     result.loop_edges = len(edges)
     result.rejected_edges = len(dropped - edges.keys())
@@ -618,11 +624,27 @@ class ChainDrift:
         return np.sqrt(np.minimum(vxy, (first_xy + last_xy + first_th * lever * lever).min(axis=1)))
 
 
-def _chain_information(poses: np.ndarray, config: LoopClosureConfig,
-                       loosen: np.ndarray | None = None) -> np.ndarray:
-    """Information of each filter step (:func:`_chain_variances`), its position's standard error
-    widened by ``loosen`` (metres, per step) if given."""
+def _witnessed_chain(poses: np.ndarray, config: LoopClosureConfig, loosen: np.ndarray | None = None,
+                     witnessed: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The chain the solve optimises: poses whose steps are the filter's, heard against the steps
+    of the odometry's poses ``witnessed`` where ``loosen`` (metres, per step) says the two disagree
+    (:func:`witnessed_steps <slam_core.graph.odometry_witness.witnessed_steps>`; ``poses`` itself
+    where nothing was heard), and each step's information (:func:`_chain_variances`, its position's
+    standard error widened by ``loosen``)."""
     vxy, vth = _chain_variances(poses, config, loosen=loosen)
+    if witnessed is None or not np.any(loosen > 0.0):
+        return poses, _information(vxy, vth)
+    steps, vxy = witnessed_steps(relative(poses[:-1], poses[1:]), vxy,
+                                 relative(witnessed[:-1], witnessed[1:]), loosen, config.witness_sigma)
+    chain = np.empty_like(poses)
+    chain[0] = poses[0]
+    for k, step in enumerate(steps):
+        chain[k + 1] = compose(chain[k], step)
+    return chain, _information(vxy, vth)
+
+
+def _information(vxy: np.ndarray, vth: np.ndarray) -> np.ndarray:
+    """``(n, 3, 3)`` information of steps of position and heading variances ``vxy``, ``vth``."""
     info = np.zeros((len(vxy), 3, 3))
     info[:, 0, 0] = info[:, 1, 1] = 1.0 / vxy
     info[:, 2, 2] = 1.0 / vth
