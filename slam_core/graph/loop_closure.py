@@ -577,8 +577,8 @@ def _chain_variances(poses: np.ndarray, config: LoopClosureConfig, scales: np.nd
 
 class ChainDrift:
     """How far the chain of filter steps alone may have drifted between two updates: its
-    steps' translation noise (widened by ``loosen``, as the solve's chain is) plus each step's
-    heading noise (times its ``scales``, when given) swung over the path after it
+    steps' translation noise (widened by ``loosen``: the filter's step may be that far off) plus
+    each step's heading noise (times its ``scales``, when given) swung over the path after it
     (:func:`_chain_variances`); and how far at most once the loop edges found so far tie parts
     of the chain together."""
 

@@ -17,7 +17,7 @@ difference, let the loops pull the trajectory 0.37 m apart within one scan.
 
 A loosened step is not left where the filter put it either: the odometry saw that step too, so the
 chain's step is the product of the two Gaussians in position (:func:`witnessed_steps`). Where the
-filter slid along a road of few walls in range (freiburg-campus: 0.65-0.97 m short at each of
+filter slid along a road of few walls in range (freiburg-campus: 0.65-0.9 m short at each of
 three scans while the odometry read the robot's 1.1 m), the chain follows the odometry; where the two
 disagree by little more than the tolerance, the step moves a little.
 """
