@@ -308,11 +308,11 @@ def test_wide_branch_and_bound_finds_the_exhaustive_searchs_optimum(seed, levels
     cells = int(rng.integers(3, 40))
     exhaustive = search(field, 0.05, 0.0, 0.0, px, py, pth, points, 0.06, 0.02, cells, 1e9, 1e9)
     pyramid = field_pyramid(field, levels)
-    wide = wide_search(pyramid, 0.05, 0.0, 0.0, px, py, pth, points, 0.06, 0.02, cells, 0.0)
+    wide = wide_search(pyramid, 0.05, 0.0, 0.0, px, py, pth, points, 0.06, 0.02, cells, 0.0, 0.0, 0.0, 0.0)
     assert abs(wide[3] - exhaustive[3]) <= 1e-5 * max(1.0, exhaustive[3])
     # a floor above the optimum finds nothing
     assert wide_search(pyramid, 0.05, 0.0, 0.0, px, py, pth, points, 0.06, 0.02, cells,
-                       exhaustive[3] + 1e-3)[3] == -1.0
+                       exhaustive[3] + 1e-3, 0.0, 0.0, 0.0)[3] == -1.0
 
 
 @settings(max_examples=20, deadline=None)
@@ -331,9 +331,9 @@ def test_a_wide_window_searched_only_where_points_reach_the_submap_finds_the_sam
     clipped = _within_reach(sub, start, linear, matcher.coarse_range)
     assert clipped is not None and clipped[1] < linear
     whole = wide_search(sub.pyramid(), 0.05, *sub.field_corner, *start, points, 0.1, 0.01,
-                        int(np.ceil(linear / 0.05)), 0.0)
+                        int(np.ceil(linear / 0.05)), 0.0, 0.0, 0.0, 0.0)
     part = wide_search(sub.pyramid(), 0.05, *sub.field_corner, *clipped[0], points, 0.1, 0.01,
-                       int(np.ceil(clipped[1] / 0.05)), 0.0)
+                       int(np.ceil(clipped[1] / 0.05)), 0.0, 0.0, 0.0, 0.0)
     assert whole[3] > 0.25 * len(points)  # it finds the room
     assert part[3] == pytest.approx(whole[3], rel=1e-6)
     far = start + np.array([60.0, 0.0, 0.0])  # a window wholly beyond the field's reach

@@ -46,7 +46,9 @@ class LoopClosureConfig:
     ``wide_confirm_fit`` is kept too if ``wide_confirmations`` of the four updates around
     it match the submap where it puts them (a narrow search that explains ``accept_fit``
     within half the narrow window of there). A narrow search is held to the same test where
-    ``window_sigmas`` of that drift reach beyond ``linear_window``.
+    ``window_sigmas`` of that drift reach beyond ``linear_window``. Such a match (wide or narrow) is
+    dropped where a pose at least ``lookalike_separation`` from it, within that reach of it, scores
+    higher in the correlative search: a road or corridor that looks the same a few metres on.
 
     Where the filter's step and the wheel odometry's disagree by more than
     ``witness_tolerance``, the step's position variance gains the square of the excess
@@ -87,6 +89,7 @@ class LoopClosureConfig:
     wide_accept_fit: float = 0.8
     wide_confirm_fit: float = 0.7
     wide_confirmations: int = 2
+    lookalike_separation: float = 1.0
     witness_tolerance: float = 0.1
     witness_sigma: float = 0.2
     consistency_tolerance: float = 0.5

@@ -19,7 +19,9 @@ trajectory at its filter updates and
    search that explains fewer is kept if the updates around it match where it
    puts them; a narrow search where the chain may have drifted farther than its
    window since the last loop edge must pass the wide search's test: a look-alike
-   place may lie within its reach);
+   place may lie within its reach; and a match of either, where that drift is large,
+   is dropped if a pose a metre or more away within the drift's reach scores higher:
+   :func:`_look_alike`);
 3. drops loop edges that imply a motion, against the edges of nearby updates into the
    same submap, that neither the filter nor the odometry saw
    (:mod:`slam_core.graph.edge_consistency`); optimises the pose graph of the loop edges
@@ -237,16 +239,29 @@ class Submaps:
         return np.minimum.reduceat(d, self.starts)[subs]
 
 
+@dataclass(frozen=True)
+class Match:
+    """One scan matched in a submap (its frame): the matcher's ``pose``, ``info`` and ``fit``
+    (the fraction of beams that found a surface), and the correlative search's best pose
+    ``peak`` with its ``score``."""
+
+    pose: np.ndarray
+    info: np.ndarray
+    fit: float
+    peak: np.ndarray
+    score: float
+
+
 def _match(sub: Submap, start: np.ndarray, beams: np.ndarray, points: np.ndarray,
            config: LoopClosureConfig, matcher: MatcherParams, params: np.ndarray,
-           linear: float, angular: float):
-    """``(pose, info, fit)`` of one scan in the submap's frame, searched within ``+-linear`` m
-    and ``+-angular`` rad of ``start``; ``None`` when the correlative search's best pose lies
-    on its window's rim, or (a window wider than the narrow one) no pose scores well."""
+           linear: float, angular: float) -> Match | None:
+    """One scan in the submap's frame, searched within ``+-linear`` m and ``+-angular`` rad of
+    ``start``; ``None`` when the correlative search's best pose lies on its window's rim, or (a
+    window wider than the narrow one) no pose scores well."""
     res = sub.maps.resolution
     if linear <= config.linear_window:
         linear_cells = int(np.ceil(linear / res))
-        sx, sy, sth, _ = bounded_search(sub.field, *sub.pooled, BLOCK_CELLS, res, sub.field_corner[0],
+        sx, sy, sth, score = bounded_search(sub.field, *sub.pooled, BLOCK_CELLS, res, sub.field_corner[0],
                                         sub.field_corner[1], start[0], start[1], start[2], points,
                                         angular, matcher.coarse_angular_step, linear_cells, *NO_SKIP)
     else:
@@ -258,7 +273,7 @@ def _match(sub: Submap, start: np.ndarray, beams: np.ndarray, points: np.ndarray
         sx, sy, sth, score = wide_search(sub.pyramid(), res, sub.field_corner[0], sub.field_corner[1],
                                          start[0], start[1], start[2], points, angular,
                                          matcher.coarse_angular_step, linear_cells,
-                                         config.wide_min_score * len(points))
+                                         config.wide_min_score * len(points), 0.0, 0.0, 0.0)
         if score < 0:
             return None
     rim = (max(abs(sx - start[0]), abs(sy - start[1])) >= (linear_cells - 0.5) * res
@@ -268,7 +283,24 @@ def _match(sub: Submap, start: np.ndarray, beams: np.ndarray, points: np.ndarray
     fine = sub.fine()
     x, y, th, info, _, _, fitting = match(*fine, sx, sy, sth, beams, params, matcher.iterations,
                                           matcher.wide_iterations)
-    return np.array([x, y, th]), info, fitting / max(len(beams), 1)
+    return Match(np.array([x, y, th]), info, fitting / max(len(beams), 1), np.array([sx, sy, sth]),
+                 float(score))
+
+
+def _look_alike(sub: Submap, found: Match, points: np.ndarray, config: LoopClosureConfig,
+                matcher: MatcherParams, linear: float, angular: float) -> bool:
+    """Whether a pose at least ``lookalike_separation`` from the match's correlative peak, within
+    ``+-linear`` m and ``+-angular`` rad of it, scores higher than the peak: a place that looks the
+    same, or more so, where the drift could as well have put the robot."""
+    window = _within_reach(sub, found.peak, linear, matcher.coarse_range)
+    if window is None:
+        return False
+    (centre, half), res = window, sub.maps.resolution
+    skip_x, skip_y = (found.peak[:2] - centre[:2]) / res
+    score = wide_search(sub.pyramid(), res, sub.field_corner[0], sub.field_corner[1], *centre, points,
+                        angular, matcher.coarse_angular_step, int(np.ceil(half / res)), found.score, skip_x,
+                        skip_y, config.lookalike_separation / res)[3]
+    return score >= 0.0
 
 
 def _within_reach(sub: Submap, start: np.ndarray, linear: float, reach: float
@@ -346,20 +378,21 @@ def close_loops(poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig 
         return bool(np.hypot(now[0] - before[0], now[1] - before[1]) < resolution
                     and abs(now[2] - before[2]) < matcher.coarse_angular_step)
 
-    def try_submap(s: int, queries: list[tuple[int, float, float, bool]], estimate: np.ndarray):
+    def try_submap(s: int, queries: list[tuple[int, float, float, float]], estimate: np.ndarray):
         sub = submaps[s]
         found = []
-        for q, linear, angular, strict in queries:
+        for q, linear, angular, drifted in queries:
             beams, points = query_rows(q)
             if len(points) == 0:
                 continue
             hit = _match(sub, sub.in_frame(estimate[sub.anchor], estimate[q]), beams, points,
                          config, matcher, params, linear, angular)
-            wide = linear > config.linear_window
-            if hit is not None and (hit[2] >= (config.wide_accept_fit if strict else config.accept_fit) or (
-                    strict and hit[2] >= config.wide_confirm_fit and confirmed(sub, q, hit[0], estimate))):
-                found.append((q, *loop_edge(sub.anchor_pose, hit[0], hit[1] * config.information_scale)))
-            elif not wide and (hit is None or hit[2] < config.accept_fit):  # nothing a narrow test takes
+            wide, strict = linear > config.linear_window, drifted > 0.0
+            if hit is not None and (hit.fit >= (config.wide_accept_fit if strict else config.accept_fit) or (
+                    strict and hit.fit >= config.wide_confirm_fit and confirmed(sub, q, hit.pose, estimate))
+                    ) and not (strict and _look_alike(sub, hit, points, config, matcher, drifted, angular)):
+                found.append((q, *loop_edge(sub.anchor_pose, hit.pose, hit.info * config.information_scale)))
+            elif not wide and (hit is None or hit.fit < config.accept_fit):  # nothing a narrow test takes
                 failed[(s, q)] = relative(estimate[sub.anchor], estimate[q])
         sub.release_fields()
         return s, found
@@ -375,12 +408,12 @@ def close_loops(poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig 
             start = compose(pose, relative(estimate[q], estimate[k]))
             hit = None if len(points) == 0 else _match(sub, start, beams, points, config, matcher, params,
                                                        *narrow)
-            agree += bool(hit is not None and hit[2] >= config.accept_fit
-                          and np.hypot(*(hit[0][:2] - start[:2])) <= narrow[0] / 2
-                          and abs(wrap_angle(hit[0][2] - start[2])) <= narrow[1] / 2)
+            agree += bool(hit is not None and hit.fit >= config.accept_fit
+                          and np.hypot(*(hit.pose[:2] - start[:2])) <= narrow[0] / 2
+                          and abs(wrap_angle(hit.pose[2] - start[2])) <= narrow[1] / 2)
         return agree >= config.wide_confirmations
 
-    def search_and_solve(pairs: dict[int, list[tuple[int, float, float, bool]]], estimate: np.ndarray):
+    def search_and_solve(pairs: dict[int, list[tuple[int, float, float, float]]], estimate: np.ndarray):
         if not pairs:
             return estimate
         result.candidates_tried += sum(len(v) for v in pairs.values())
@@ -414,16 +447,18 @@ def close_loops(poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig 
     if edges:
         estimate = solve(estimate)  # the searches start where the edges kept put the poses
     for _ in range(config.rounds):
-        # (submap: [(update, linear window, angular window, whether only a wide search's fit will do)])
-        pairs: dict[int, list[tuple[int, float, float, bool]]] = {}
+        # (submap: [(update, linear window, angular window, how far the chain may have drifted: where
+        # beyond the narrow window, only a wide search's fit and no look-alike in that reach will do)])
+        pairs: dict[int, list[tuple[int, float, float, float]]] = {}
         loops = np.array(list(edges), np.int64).reshape(-1, 2)
         for q in range(first, n):
             near = [s for s in _candidates(q, estimate, path, submaps, config)
                     if (int(submaps.anchors[s]), q) not in edges and not failed_before(s, q, estimate)]
             if near:  # where the chain may have drifted beyond the window, a look-alike could be there
-                sxy = drift.since_loops(submaps.anchors[near], q, loops)
-                for s, strict in zip(near, config.window_sigmas * sxy > narrow[0], strict=True):
-                    pairs.setdefault(s, []).append((q, *narrow, bool(strict)))
+                spread = np.minimum(config.window_sigmas * drift.since_loops(submaps.anchors[near], q, loops),
+                                    config.max_linear_window)
+                for s, drifted in zip(near, np.where(spread > narrow[0], spread, 0.0), strict=True):
+                    pairs.setdefault(s, []).append((q, *narrow, float(drifted)))
         estimate = search_and_solve(pairs, estimate)
         linked = {q for _, q in edges}
         loops = np.array(list(edges), np.int64).reshape(-1, 2)
@@ -434,7 +469,7 @@ def close_loops(poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig 
             for s, linear, angular in _wide_candidates(q, estimate, path, submaps, drift, loops, config):
                 if (s, q) not in tried_wide:
                     tried_wide.add((s, q))
-                    pairs.setdefault(s, []).append((q, linear, angular, True))
+                    pairs.setdefault(s, []).append((q, linear, angular, linear))
         estimate = search_and_solve(pairs, estimate)
     if not solved[0] and chain_poses is not poses:  # nothing searched: the chain as the odometry heard it
         estimate = solve(estimate)

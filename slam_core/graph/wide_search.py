@@ -34,11 +34,12 @@ def field_pyramid(field, levels):
 
 @njit
 def wide_search(pyramid, resolution, window_x, window_y, px, py, pth, points, angular_half,
-                angular_step, linear_cells, min_score):
+                angular_step, linear_cells, min_score, exclude_x, exclude_y, exclude_cells):
     """The best pose ``(x, y, th, score)`` within ``+-linear_cells`` and ``+-angular_half`` of
     ``(px, py, pth)`` whose score (the field summed at the ``points``) exceeds ``min_score``;
     ``score`` is ``-1`` when no pose does. ``pyramid`` is ``field_pyramid(field, ...)``, the
-    field's lower-left corner at ``(window_x, window_y)``."""
+    field's lower-left corner at ``(window_x, window_y)``. Offsets within ``exclude_cells`` (if
+    positive) of the offset ``(exclude_x, exclude_y)`` (cells) are left out, at every heading."""
     levels = pyramid.shape[0] - 1
     n_rot, cells_x, cells_y = rotated_endpoint_cells(px, py, pth, points, window_x, window_y, resolution,
                                                      angular_half, angular_step)
@@ -78,6 +79,8 @@ def wide_search(pyramid, resolution, window_x, window_y, px, py, pth, points, an
             continue
         r, ox, oy, level = st_r[sp], st_x[sp], st_y[sp], st_level[sp]
         if level == 0:
+            if exclude_cells > 0 and (ox - exclude_x) ** 2 + (oy - exclude_y) ** 2 <= exclude_cells ** 2:
+                continue
             best = st_bound[sp]
             found = True
             bx_best, by_best, r_best = ox, oy, r
