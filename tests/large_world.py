@@ -18,8 +18,10 @@ def rectangle(x0, y0, x1, y1) -> list[list[float]]:
     return [[x0, y0, x1, y0], [x1, y0, x1, y1], [x1, y1, x0, y1], [x0, y1, x0, y0]]
 
 
-def ring_world(length=70.0, width=40.0, corridor=3.0, seed=0) -> np.ndarray:
-    """Segments of a rectangular ring corridor ``corridor`` m wide, boxes along both walls."""
+def ring_world(length=70.0, width=40.0, corridor=3.0, seed=0, period=None) -> np.ndarray:
+    """Segments of a rectangular ring corridor ``corridor`` m wide, boxes along both walls: at
+    irregular places, or (``period`` m) one every ``period`` m, their sizes a little different
+    (a street of look-alike doorways: each place fits best where it is, another nearly as well)."""
     rng = np.random.default_rng(seed)
     segments = rectangle(0, 0, length, width) + rectangle(corridor, corridor, length - corridor,
                                                           width - corridor)
@@ -31,13 +33,16 @@ def ring_world(length=70.0, width=40.0, corridor=3.0, seed=0) -> np.ndarray:
         for (sx, sy), (dx, dy), span, turn in edges:
             at = rng.uniform(1.0, 4.0)
             while at < span - 2.0:
-                w, d = rng.uniform(0.3, 1.2), rng.uniform(0.2, 0.6)
+                if period is None:
+                    w, d = rng.uniform(0.3, 1.2), rng.uniform(0.2, 0.6)
+                else:
+                    w, d = 0.8 + rng.uniform(-0.1, 0.1), 0.4 + rng.uniform(-0.1, 0.1)
                 nx, ny = -dy * turn * side, dx * turn * side  # into the corridor
                 cx, cy = sx + dx * at, sy + dy * at
                 xs = [cx, cx + dx * w, cx + nx * d, cx + dx * w + nx * d]
                 ys = [cy, cy + dy * w, cy + ny * d, cy + dy * w + ny * d]
                 segments += box(min(xs), min(ys), max(xs) - min(xs), max(ys) - min(ys))
-                at += w + rng.uniform(1.5, 6.0)
+                at += w + rng.uniform(1.5, 6.0) if period is None else period
     return np.array(segments, float)
 
 

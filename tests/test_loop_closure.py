@@ -315,6 +315,29 @@ def test_wide_branch_and_bound_finds_the_exhaustive_searchs_optimum(seed, levels
                        exhaustive[3] + 1e-3, 0.0, 0.0, 0.0)[3] == -1.0
 
 
+@settings(max_examples=25, deadline=None)
+@given(st.integers(0, 10_000), st.integers(0, 12))
+def test_wide_branch_and_bound_leaves_out_a_disc_and_finds_the_best_pose_outside_it(seed, radius):
+    """Against every pose of the window scored one by one, those within ``radius`` cells of a
+    random offset left out (a look-alike's search around a match)."""
+    rng = np.random.default_rng(seed)
+    field = np.where(rng.random((90, 100)) < 0.05, rng.random((90, 100)), 0.0).astype(np.float32)
+    points = rng.uniform(-2.0, 2.0, (30, 2))
+    px, py, pth = rng.uniform(1.5, 3.5), rng.uniform(1.5, 3.0), rng.uniform(-np.pi, np.pi)
+    cells, n_rot, step = int(rng.integers(3, 25)), 3, 0.02
+    ex, ey = rng.integers(-cells, cells + 1, 2)
+    scores = [search(field, 0.05, 0.0, 0.0, px + dx * 0.05, py + dy * 0.05, pth + r * step, points, 0.0, step,
+                     0, 1e9, 1e9)[3]
+              for r in range(-n_rot, n_rot + 1)
+              for dy in range(-cells, cells + 1) for dx in range(-cells, cells + 1)
+              if radius == 0 or (dx - ex) ** 2 + (dy - ey) ** 2 > radius ** 2]  # 0: nothing left out
+    pyramid = field_pyramid(field, 4)
+    got = wide_search(pyramid, 0.05, 0.0, 0.0, px, py, pth, points, n_rot * step, step, cells, 0.0,
+                      float(ex), float(ey), float(radius))[3]
+    best = max(scores)
+    assert abs(got - best) <= 1e-5 * max(1.0, best)
+
+
 @settings(max_examples=20, deadline=None)
 @given(st.integers(0, 10_000))
 def test_a_wide_window_searched_only_where_points_reach_the_submap_finds_the_same_best_score(seed):
