@@ -33,6 +33,15 @@ def field_pyramid(field, levels):
 
 
 @njit
+def _within_disc(ox, oy, size, cx, cy, radius):
+    """Whether the block of ``size`` offsets from ``(ox, oy)`` lies wholly within ``radius`` of
+    ``(cx, cy)`` (its farthest corner does)."""
+    dx = max(abs(ox - cx), abs(ox + size - 1 - cx))
+    dy = max(abs(oy - cy), abs(oy + size - 1 - cy))
+    return dx * dx + dy * dy <= radius * radius
+
+
+@njit
 def wide_search(pyramid, resolution, window_x, window_y, px, py, pth, points, angular_half,
                 angular_step, linear_cells, min_score, exclude_x, exclude_y, exclude_cells):
     """The best pose ``(x, y, th, score)`` within ``+-linear_cells`` and ``+-angular_half`` of
@@ -78,9 +87,9 @@ def wide_search(pyramid, resolution, window_x, window_y, px, py, pth, points, an
         if st_bound[sp] <= best:
             continue
         r, ox, oy, level = st_r[sp], st_x[sp], st_y[sp], st_level[sp]
+        if exclude_cells > 0 and _within_disc(ox, oy, 1 << level, exclude_x, exclude_y, exclude_cells):
+            continue  # every offset of the block is left out
         if level == 0:
-            if exclude_cells > 0 and (ox - exclude_x) ** 2 + (oy - exclude_y) ** 2 <= exclude_cells ** 2:
-                continue
             best = st_bound[sp]
             found = True
             bx_best, by_best, r_best = ox, oy, r
