@@ -298,7 +298,7 @@ def _look_alike(sub: Submap, found: Match, points: np.ndarray, config: LoopClosu
     (centre, half), res = window, sub.maps.resolution
     skip_x, skip_y = (found.peak[:2] - centre[:2]) / res
     score = wide_search(sub.pyramid(), res, sub.field_corner[0], sub.field_corner[1], *centre, points,
-                        angular, matcher.coarse_angular_step, int(np.ceil(half / res)), found.score, skip_x,
+                        angular, config.lookalike_angular_step, int(np.ceil(half / res)), found.score, skip_x,
                         skip_y, config.lookalike_separation / res)[3]
     return score >= 0.0
 
