@@ -262,8 +262,8 @@ def _match(sub: Submap, start: np.ndarray, beams: np.ndarray, points: np.ndarray
     if linear <= config.linear_window:
         linear_cells = int(np.ceil(linear / res))
         sx, sy, sth, score = bounded_search(sub.field, *sub.pooled, BLOCK_CELLS, res, sub.field_corner[0],
-                                        sub.field_corner[1], start[0], start[1], start[2], points,
-                                        angular, matcher.coarse_angular_step, linear_cells, *NO_SKIP)
+                                            sub.field_corner[1], start[0], start[1], start[2], points,
+                                            angular, matcher.coarse_angular_step, linear_cells, *NO_SKIP)
     else:
         start = _within_reach(sub, start, linear, matcher.coarse_range)
         if start is None:
