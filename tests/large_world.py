@@ -21,7 +21,7 @@ def rectangle(x0, y0, x1, y1) -> list[list[float]]:
 def ring_world(length=70.0, width=40.0, corridor=3.0, seed=0, period=None) -> np.ndarray:
     """Segments of a rectangular ring corridor ``corridor`` m wide, boxes along both walls: at
     irregular places, or (``period`` m) one every ``period`` m, their sizes a little different
-    (a street of look-alike doorways: each place fits best where it is, another nearly as well)."""
+    (a street of look-alike doorways: each place fits best where it is, the next one less well)."""
     rng = np.random.default_rng(seed)
     segments = rectangle(0, 0, length, width) + rectangle(corridor, corridor, length - corridor,
                                                           width - corridor)
@@ -36,7 +36,7 @@ def ring_world(length=70.0, width=40.0, corridor=3.0, seed=0, period=None) -> np
                 if period is None:
                     w, d = rng.uniform(0.3, 1.2), rng.uniform(0.2, 0.6)
                 else:
-                    w, d = 0.8 + rng.uniform(-0.1, 0.1), 0.4 + rng.uniform(-0.1, 0.1)
+                    w, d = 0.8 + rng.uniform(-0.25, 0.25), 0.4 + rng.uniform(-0.15, 0.15)
                 nx, ny = -dy * turn * side, dx * turn * side  # into the corridor
                 cx, cy = sx + dx * at, sy + dy * at
                 xs = [cx, cx + dx * w, cx + nx * d, cx + dx * w + nx * d]

@@ -20,8 +20,8 @@ trajectory at its filter updates and
    puts them; a narrow search where the chain may have drifted farther than its
    window since the last loop edge must pass the wide search's test: a look-alike
    place may lie within its reach; and a match of either, where that drift is large,
-   is dropped if a pose a metre or more away within the drift's reach scores higher:
-   :func:`_look_alike`);
+   is dropped if a pose a metre or more away within the drift's reach scores clearly
+   higher: :func:`_look_alike`);
 3. drops loop edges that imply a motion, against the edges of nearby updates into the
    same submap, that neither the filter nor the odometry saw
    (:mod:`slam_core.graph.edge_consistency`); optimises the pose graph of the loop edges
@@ -290,16 +290,18 @@ def _match(sub: Submap, start: np.ndarray, beams: np.ndarray, points: np.ndarray
 def _look_alike(sub: Submap, found: Match, points: np.ndarray, config: LoopClosureConfig,
                 matcher: MatcherParams, linear: float, angular: float) -> bool:
     """Whether a pose at least ``lookalike_separation`` from the match's correlative peak, within
-    ``+-linear`` m and ``+-angular`` rad of it, scores higher than the peak: a place that looks the
-    same, or more so, where the drift could as well have put the robot."""
+    ``+-linear`` m and ``+-angular`` rad of it, scores ``lookalike_ratio`` times the peak's score: a
+    place that looks the same, and fits clearly better, where the drift could as well have put the
+    robot."""
     window = _within_reach(sub, found.peak, linear, matcher.coarse_range)
     if window is None:
         return False
     (centre, half), res = window, sub.maps.resolution
     skip_x, skip_y = (found.peak[:2] - centre[:2]) / res
     score = wide_search(sub.pyramid(), res, sub.field_corner[0], sub.field_corner[1], *centre, points,
-                        angular, config.lookalike_angular_step, int(np.ceil(half / res)), found.score, skip_x,
-                        skip_y, config.lookalike_separation / res)[3]
+                        angular, config.lookalike_angular_step, int(np.ceil(half / res)),
+                        config.lookalike_ratio * found.score, skip_x, skip_y,
+                        config.lookalike_separation / res)[3]
     return score >= 0.0
 
 
