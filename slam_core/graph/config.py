@@ -49,9 +49,9 @@ class LoopClosureConfig:
     ``window_sigmas`` of that drift reach beyond ``linear_window``. Such a match (wide or narrow) is
     dropped where a pose at least ``lookalike_separation`` from it, within that reach of it, scores
     ``lookalike_ratio`` times its score in the correlative search: a road or corridor that looks
-    the same a few metres on. The margin is for what scores at two poses of one submap share
+    the same a few metres on. The margin is for what sets scores at two poses of one submap apart
     besides the fit: how much of the scan lands where the submap has seen anything (in mit-csail's
-    corridors true matches have look-alikes scoring up to 8 % higher). Its headings are searched in
+    corridors, matches a map needs have look-alikes scoring up to 8 % higher). Its headings are searched in
     steps of ``lookalike_angular_step``, coarser than the search's own, so a look-alike better only
     between them is missed: the test lets a match through rather than drop a true one.
 
