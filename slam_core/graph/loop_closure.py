@@ -457,8 +457,7 @@ def close_loops(poses: np.ndarray, scans: list[Scan], config: LoopClosureConfig 
             near = [s for s in _candidates(q, estimate, path, submaps, config)
                     if (int(submaps.anchors[s]), q) not in edges and not failed_before(s, q, estimate)]
             if near:  # where the chain may have drifted beyond the window, a look-alike could be there
-                spread = np.minimum(config.window_sigmas * drift.since_loops(submaps.anchors[near], q, loops),
-                                    config.max_linear_window)
+                spread = _drift_reach(drift.since_loops(submaps.anchors[near], q, loops), config)
                 for s, drifted in zip(near, np.where(spread > narrow[0], spread, 0.0), strict=True):
                     pairs.setdefault(s, []).append((q, *narrow, float(drifted)))
         estimate = search_and_solve(pairs, estimate)
@@ -737,6 +736,12 @@ def _candidates(q: int, estimate: np.ndarray, path: np.ndarray, submaps: Submaps
     return [int(old[k]) for k in near if d[k] < config.search_radius]
 
 
+def _drift_reach(sxy: np.ndarray, config: LoopClosureConfig) -> np.ndarray:
+    """How far (m) a look-alike may lie, and a wide search looks, for the chain's drift of linear
+    standard errors ``sxy``: ``window_sigmas`` of it, within the narrow and the widest windows."""
+    return np.clip(config.window_sigmas * sxy, config.linear_window, config.max_linear_window)
+
+
 def _wide_candidates(q: int, estimate: np.ndarray, path: np.ndarray, submaps: Submaps, drift: ChainDrift,
                      loops: np.ndarray, config: LoopClosureConfig) -> list[tuple[int, float, float]]:
     """``(submap, linear, angular)``: submaps passed long before update ``q`` that the drift
@@ -750,7 +755,7 @@ def _wide_candidates(q: int, estimate: np.ndarray, path: np.ndarray, submaps: Su
         return []
     sxy = drift.since_loops(submaps.anchors[old], q, loops)
     _, sth = drift.sigmas(submaps.anchors[old], q)  # the chain's heading drift: loops close it less surely
-    linear = np.clip(config.window_sigmas * sxy, config.linear_window, config.max_linear_window)
+    linear = _drift_reach(sxy, config)
     angular = np.clip(config.heading_window_sigmas * sth, config.angular_window, config.max_angular_window)
     d = np.hypot(*(estimate[submaps.anchors[old], :2] - estimate[q, :2]).T)
     reachable = np.flatnonzero((d < config.search_radius + linear) & (linear > config.linear_window))
