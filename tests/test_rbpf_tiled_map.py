@@ -5,6 +5,7 @@ from dataclasses import replace
 import numpy as np
 
 from slam_core.occupancy_grid import OccupancyGrid
+from slam_core.rbpf import tiled_map
 from slam_core.rbpf.tiled_map import HIT_N, PART, TILE, TiledMaps
 from slam_core.scan import Scan
 
@@ -109,9 +110,10 @@ def test_grid_round_trip_through_seed():
     assert maps.to_grid(3).shape[0] % TILE == 0
 
 
-def test_writes_that_change_nothing_copy_no_tile():
+def test_writes_that_change_nothing_copy_no_tile(monkeypatch):
     """Free-space beams over cells already at the lower clamp leave shared tiles shared;
     a beam that changes a cell (an echo) still copies its tile, and only for that map."""
+    monkeypatch.setattr(tiled_map, "SHARE_EVERY", 10**9)  # no sweep to make the settled tiles one
     maps = TiledMaps(3, 0.05)
     settled = OccupancyGrid(0.05, origin=(-8.0, -8.0), shape=(320, 320), model=maps.model,
                             data=np.full((320, 320), np.float32(maps.model.l_min)))
@@ -128,6 +130,32 @@ def test_writes_that_change_nothing_copy_no_tile():
     copied = [int(np.sum(maps.tables[i] != maps.tables[(i + 1) % 3])) for i in range(3)]
     assert 0 < max(copied) <= 2 * 3  # the echo's tile (and a neighbour) per map, nothing else
     assert maps.to_grid(0).data.max() > maps.model.l_min  # the echo was written
+
+
+def test_settled_copies_are_shared_before_the_maps_hold_more_tiles_than_ever(monkeypatch):
+    """Three maps clear free space around ten places 6 m apart, each from its own poses, so each
+    holds private copies of settled tiles (every cell at ``l_min``). Swept into one shared tile
+    before the maps may take more tiles than they ever held, those copies are reused for the next
+    places: the maps read the same, and hold fewer tiles at their most."""
+    no_return = Scan(np.linspace(-np.pi, np.pi, 360, endpoint=False), np.full(360, 80.0), 0.1, 80.0)
+
+    def mapped(share_every):
+        monkeypatch.setattr(tiled_map, "SHARE_EVERY", share_every)
+        rng = np.random.default_rng(7)
+        maps = TiledMaps(3, 0.05)
+        for k in range(60):
+            place = np.array([6.0 * (k // 6), 0.0, 0.0])
+            maps.integrate(place + rng.normal(0.0, [0.05, 0.05, 0.02], (3, 3)), no_return)
+        return maps
+
+    swept, unswept = mapped(1), mapped(10**9)
+    settled = np.float32(swept.model.l_min)
+    assert np.count_nonzero(unswept.to_grid(0).data == settled) > 5000  # the copies the sweep frees
+    for i in range(3):
+        np.testing.assert_array_equal(swept.to_grid(i).data, unswept.to_grid(i).data)
+        np.testing.assert_array_equal(swept.to_grid(i).origin, unswept.to_grid(i).origin)
+    assert swept.most_tiles < 0.6 * unswept.most_tiles
+    assert unswept.most_tiles == unswept.tiles_in_use  # no tile was freed without the sweep
 
 
 def test_only_tile_parts_an_echo_fell_into_hold_hit_sums():

@@ -19,9 +19,11 @@ tile): most tiles a scan crosses are free space and have none, and a wall crosse
 of a tile's parts (``hit_of[t, part_of(cy, cx)]`` is the block of tile ``t``'s cell ``(cy, cx)``).
 
 Outdoors a third of the tiles in use end up as private copies of settled free space: every
-cell at the lower clamp ``l_min``, no echo. Before a pool grows, all such tiles are made one
-shared tile (:func:`_share_settled`); the maps read the same values from it, and a free-space
-write leaves it shared as it leaves any cell at ``l_min``.
+cell at the lower clamp ``l_min``, no echo. Before a pool grows, and before the maps may take
+more tiles than they ever held at once, all such tiles are made one shared tile
+(:func:`_share_settled`); the maps read the same values from it, and a free-space write leaves
+it shared as it leaves any cell at ``l_min``. A process holds every tile row it ever wrote, so
+the most tiles ever in use at once is its memory.
 """
 
 from __future__ import annotations
@@ -48,6 +50,9 @@ HIT_X, HIT_Y, HIT_N = 0, 1, 2
 GROW_DIVISOR = 8
 #: Least slice of a pool's free entries a map that ran out is given next.
 MIN_SLICE = 16
+#: Integrations at least between two sweeps for settled tiles made before the maps may take more
+#: tiles than they ever held at once (a sweep reads the whole pool and every table).
+SHARE_EVERY = 10
 
 
 @njit
@@ -380,8 +385,9 @@ class TiledMaps:
     out from their low ends, so the memory a process really holds is that of the entries
     taken so far (the operating system maps zeroed pages only when they are first written);
     when full a pool grows by an eighth (or what is needed), in place, the tile pool only after
-    its settled tiles were shared (:func:`_share_settled`). The matching kernels read ``lo`` and
-    ``hits`` (each tile's hit block index, and the blocks).
+    its settled tiles were shared (:func:`_share_settled`); they are shared too before the maps may
+    hold more tiles than ``most_tiles``, the most they held at once so far. The matching kernels
+    read ``lo`` and ``hits`` (each tile's hit block index, and the blocks).
     """
 
     def __init__(self, n_maps: int, resolution: float = 0.05, model: SensorModel | None = None,
@@ -402,6 +408,10 @@ class TiledMaps:
         #: Tiles and hit blocks a map took in the last integrate, on average: slices of that and
         #: MIN_SLICE keep the maps taking from the stacks' tops, the entries already touched.
         self._took = np.zeros(2, np.int64)
+        #: The most tiles ever in use at once, the integrations so far and at the last sweep.
+        self.most_tiles = 0
+        self._integrations = 0
+        self._swept_at = 0
 
     @property
     def n_maps(self) -> int:
@@ -474,6 +484,10 @@ class TiledMaps:
         bounds = tiles, blocks
         tiles = np.minimum(tiles, self._took[0] + MIN_SLICE)
         blocks = np.minimum(blocks, self._took[1] + MIN_SLICE)
+        self._integrations += 1
+        if (self.tiles_in_use + int(tiles.sum()) > self.most_tiles
+                and self._integrations - self._swept_at >= SHARE_EVERY):
+            self._share_settled()
         start = np.zeros((self.n_maps, 2), np.int64)
         took = np.zeros((self.n_maps, 2), np.int64)
         while True:
@@ -490,6 +504,7 @@ class TiledMaps:
                     top, self.hit_free_stack, self.hit_free_top, hit_base, hit_bottom, hit_top)
             took[:, 0] += ceiling - top
             took[:, 1] += hit_ceiling - hit_top
+            self.most_tiles = max(self.most_tiles, self.tiles_in_use)
             pending = start[:, 0] >= 0
             if not pending.any():
                 self._took = took.sum(axis=0) // self.n_maps
@@ -511,8 +526,7 @@ class TiledMaps:
         grows only if that left fewer than ``needed`` or a sixteenth of it free (so that a sweep
         that freed little is not followed by another at once)."""
         if self.free_top[0] < needed:
-            _share_settled(self.tables, self.refs, self.lo, self.hit_of, self.free_stack, self.free_top,
-                           np.float32(self.model.l_min))
+            self._share_settled()
             free = int(self.free_top[0])
             if free < max(needed, len(self.refs) // (2 * GROW_DIVISOR)):
                 old = len(self.refs)
@@ -530,6 +544,11 @@ class TiledMaps:
             self._grow("hit_blocks", new)
             self.hit_free_stack = _grown_stack(self.hit_free_stack, free, old, new)
             self.hit_free_top[0] = free + new - old
+
+    def _share_settled(self) -> None:
+        _share_settled(self.tables, self.refs, self.lo, self.hit_of, self.free_stack, self.free_top,
+                       np.float32(self.model.l_min))
+        self._swept_at = self._integrations
 
     def _grow(self, name: str, length: int) -> None:
         """Give the pool array ``name`` ``length`` rows, the new ones zero, in place when nothing else
@@ -642,3 +661,4 @@ class TiledMaps:
                         self.hit_blocks[self.hit_of[t, part]] = sums
                 self.refs[t] = self.n_maps
                 self.tables[:, ty, tx] = t
+        self.most_tiles = max(self.most_tiles, self.tiles_in_use)
