@@ -100,6 +100,20 @@ def test_all_message_forms(tmp_path, suffix):
     assert records[6].scan.ranges.tolist() == [5.0]
 
 
+def test_scans_with_the_same_beams_share_one_bearings_array(tmp_path):
+    """A log's scans are held to its end: those with the same beams (count, and for ROBOTLASER1 the
+    start angle and step) refer to one bearings array, and the others have their own."""
+    text = (flaser([1.0] * 4) + flaser([2.0] * 4) + flaser([1.0] * 5)
+            + robotlaser([1.0, 2.0, 3.0]) + robotlaser([4.0, 5.0, 6.0])
+            + robotlaser([1.0, 2.0, 3.0], res=0.25) + robotlaser([1.0, 2.0, 3.0], start=-1.0))
+    scans = [r.scan for r in laser_records(write_log(tmp_path / "a.clf", text))]
+    assert scans[0].angles is scans[1].angles and scans[3].angles is scans[4].angles
+    others = [scans[k].angles for k in (0, 2, 3, 5, 6)]
+    assert len({id(a) for a in others}) == 5
+    assert np.allclose(scans[5].angles, [-1.5, -1.25, -1.0])
+    assert np.allclose(scans[6].angles, [-1.0, -0.5, 0.0])
+
+
 def test_laser_records_only_lasers(tmp_path):
     recs = list(laser_records(write_log(tmp_path / "log.gz", LOG)))
     assert [r.kind for r in recs] == ["FLASER", "RLASER", "ROBOTLASER1", "ROBOTLASER1"]

@@ -133,7 +133,9 @@ class CarmenReader:
         self.range_min = range_min
         self.progress = progress
         self.skipped: Counter[str] = Counter()
-        self._angles: dict[int, np.ndarray] = {}
+        #: One bearings array per beam count (FLASER) or (count, start, step) (ROBOTLASER1), shared
+        #: by every scan that has it: a log's scans are held to its end.
+        self._angles: dict[tuple, np.ndarray] = {}
 
     def __iter__(self) -> Iterator[LaserRecord | OdomRecord | ParamRecord]:
         size = max(self.path.stat().st_size, 1)
@@ -246,9 +248,9 @@ class CarmenReader:
         ranges = self._numbers(fields, 2, n, line_number, f"{kind} ranges")
         poses = self._numbers(fields, 2 + n, 6, line_number, f"{kind} poses", finite=True)
         stamp = self._stamp(fields, 8 + n, line_number, kind)
-        angles = self._angles.get(n)
+        angles = self._angles.get((n,))
         if angles is None:
-            angles = self._angles[n] = flaser_angles(n)
+            angles = self._angles[(n,)] = flaser_angles(n)
         scan = Scan(angles, ranges, self.range_min, self.no_return, stamp.ipc_time)
         return LaserRecord(kind, scan, poses[:3], poses[3:], stamp)
 
@@ -279,7 +281,9 @@ class CarmenReader:
         at = 10 + n + n_rem
         poses = self._numbers(fields, at, 11, line_number, f"{kind} poses", finite=True)
         stamp = self._stamp(fields, at + 11, line_number, kind)
-        angles = uniform_angles(n, start_angle, resolution)
+        angles = self._angles.get((n, start_angle, resolution))
+        if angles is None:
+            angles = self._angles[(n, start_angle, resolution)] = uniform_angles(n, start_angle, resolution)
         rmax = max_range if max_range > 0 else self.no_return
         scan = Scan(angles, ranges, self.range_min, rmax, stamp.ipc_time)
         return LaserRecord(kind, scan, poses[:3], poses[3:6], stamp)
