@@ -110,10 +110,9 @@ def test_grid_round_trip_through_seed():
     assert maps.to_grid(3).shape[0] % TILE == 0
 
 
-def test_writes_that_change_nothing_copy_no_tile(monkeypatch):
+def test_writes_that_change_nothing_copy_no_tile():
     """Free-space beams over cells already at the lower clamp leave shared tiles shared;
     a beam that changes a cell (an echo) still copies its tile, and only for that map."""
-    monkeypatch.setattr(tiled_map, "SHARE_EVERY", 10**9)  # no sweep to make the settled tiles one
     maps = TiledMaps(3, 0.05)
     settled = OccupancyGrid(0.05, origin=(-8.0, -8.0), shape=(320, 320), model=maps.model,
                             data=np.full((320, 320), np.float32(maps.model.l_min)))
@@ -138,6 +137,7 @@ def test_settled_copies_are_shared_before_the_maps_hold_more_tiles_than_ever(mon
     before the maps may take more tiles than they ever held, those copies are reused for the next
     places: the maps read the same, and hold fewer tiles at their most."""
     no_return = Scan(np.linspace(-np.pi, np.pi, 360, endpoint=False), np.full(360, 80.0), 0.1, 80.0)
+    shipped = tiled_map.SHARE_EVERY
 
     def mapped(share_every):
         monkeypatch.setattr(tiled_map, "SHARE_EVERY", share_every)
@@ -148,7 +148,7 @@ def test_settled_copies_are_shared_before_the_maps_hold_more_tiles_than_ever(mon
             maps.integrate(place + rng.normal(0.0, [0.05, 0.05, 0.02], (3, 3)), no_return)
         return maps
 
-    swept, unswept = mapped(1), mapped(10**9)
+    swept, unswept = mapped(shipped), mapped(10**9)
     settled = np.float32(swept.model.l_min)
     assert np.count_nonzero(unswept.to_grid(0).data == settled) > 5000  # the copies the sweep frees
     for i in range(3):

@@ -487,7 +487,7 @@ class TiledMaps:
         self._integrations += 1
         if (self.tiles_in_use + int(tiles.sum()) > self.most_tiles
                 and self._integrations - self._swept_at >= SHARE_EVERY):
-            self._share_settled()
+            self._sweep_settled()
         start = np.zeros((self.n_maps, 2), np.int64)
         took = np.zeros((self.n_maps, 2), np.int64)
         while True:
@@ -526,7 +526,7 @@ class TiledMaps:
         grows only if that left fewer than ``needed`` or a sixteenth of it free (so that a sweep
         that freed little is not followed by another at once)."""
         if self.free_top[0] < needed:
-            self._share_settled()
+            self._sweep_settled()
             free = int(self.free_top[0])
             if free < max(needed, len(self.refs) // (2 * GROW_DIVISOR)):
                 old = len(self.refs)
@@ -545,7 +545,8 @@ class TiledMaps:
             self.hit_free_stack = _grown_stack(self.hit_free_stack, free, old, new)
             self.hit_free_top[0] = free + new - old
 
-    def _share_settled(self) -> None:
+    def _sweep_settled(self) -> None:
+        """Make every map's settled tiles one shared tile (:func:`_share_settled`)."""
         _share_settled(self.tables, self.refs, self.lo, self.hit_of, self.free_stack, self.free_top,
                        np.float32(self.model.l_min))
         self._swept_at = self._integrations
