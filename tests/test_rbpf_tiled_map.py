@@ -5,8 +5,7 @@ from dataclasses import replace
 import numpy as np
 
 from slam_core.occupancy_grid import OccupancyGrid
-from slam_core.rbpf import tiled_map
-from slam_core.rbpf.tiled_map import HIT_N, PART, TILE, TiledMaps
+from slam_core.rbpf.tiled_map import HIT_N, PART, SWEEP_EVERY, TILE, TiledMaps
 from slam_core.scan import Scan
 
 
@@ -131,24 +130,22 @@ def test_writes_that_change_nothing_copy_no_tile():
     assert maps.to_grid(0).data.max() > maps.model.l_min  # the echo was written
 
 
-def test_settled_copies_are_shared_before_the_maps_hold_more_tiles_than_ever(monkeypatch):
+def test_settled_copies_are_shared_before_the_maps_hold_more_tiles_than_ever():
     """Three maps clear free space around ten places 6 m apart, each from its own poses, so each
     holds private copies of settled tiles (every cell at ``l_min``). Swept into one shared tile
     before the maps may take more tiles than they ever held, those copies are reused for the next
     places: the maps read the same, and hold fewer tiles at their most."""
     no_return = Scan(np.linspace(-np.pi, np.pi, 360, endpoint=False), np.full(360, 80.0), 0.1, 80.0)
-    shipped = tiled_map.SHARE_EVERY
 
-    def mapped(share_every):
-        monkeypatch.setattr(tiled_map, "SHARE_EVERY", share_every)
+    def mapped(sweep_every):
         rng = np.random.default_rng(7)
-        maps = TiledMaps(3, 0.05)
+        maps = TiledMaps(3, 0.05, sweep_every=sweep_every)
         for k in range(60):
             place = np.array([6.0 * (k // 6), 0.0, 0.0])
             maps.integrate(place + rng.normal(0.0, [0.05, 0.05, 0.02], (3, 3)), no_return)
         return maps
 
-    swept, unswept = mapped(shipped), mapped(10**9)
+    swept, unswept = mapped(SWEEP_EVERY), mapped(0)
     settled = np.float32(swept.model.l_min)
     assert np.count_nonzero(unswept.to_grid(0).data == settled) > 5000  # the copies the sweep frees
     for i in range(3):

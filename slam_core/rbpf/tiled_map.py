@@ -52,7 +52,7 @@ GROW_DIVISOR = 8
 MIN_SLICE = 16
 #: Integrations at least between two sweeps for settled tiles made before the maps may take more
 #: tiles than they ever held at once (a sweep reads the whole pool and every table).
-SHARE_EVERY = 10
+SWEEP_EVERY = 10
 
 
 @njit
@@ -386,12 +386,13 @@ class TiledMaps:
     taken so far (the operating system maps zeroed pages only when they are first written);
     when full a pool grows by an eighth (or what is needed), in place, the tile pool only after
     its settled tiles were shared (:func:`_share_settled`); they are shared too before the maps may
-    hold more tiles than ``most_tiles``, the most they held at once so far. The matching kernels
-    read ``lo`` and ``hits`` (each tile's hit block index, and the blocks).
+    hold more tiles than ``most_tiles``, the most they held at once so far, at most once in
+    ``sweep_every`` integrations (0: only before a pool grows). The matching kernels read ``lo``
+    and ``hits`` (each tile's hit block index, and the blocks).
     """
 
     def __init__(self, n_maps: int, resolution: float = 0.05, model: SensorModel | None = None,
-                 capacity: int = 16384):
+                 capacity: int = 16384, sweep_every: int = SWEEP_EVERY):
         self.resolution = float(resolution)
         self.model = model or SensorModel()
         self._pools = MappedPools()  # the large pools, grown in place
@@ -410,6 +411,7 @@ class TiledMaps:
         self._took = np.zeros(2, np.int64)
         #: The most tiles ever in use at once, the integrations so far and at the last sweep.
         self.most_tiles = 0
+        self.sweep_every = sweep_every
         self._integrations = 0
         self._swept_at = 0
 
@@ -485,8 +487,8 @@ class TiledMaps:
         tiles = np.minimum(tiles, self._took[0] + MIN_SLICE)
         blocks = np.minimum(blocks, self._took[1] + MIN_SLICE)
         self._integrations += 1
-        if (self.tiles_in_use + int(tiles.sum()) > self.most_tiles
-                and self._integrations - self._swept_at >= SHARE_EVERY):
+        if (self.sweep_every > 0 and self.tiles_in_use + int(tiles.sum()) > self.most_tiles
+                and self._integrations - self._swept_at >= self.sweep_every):
             self._sweep_settled()
         start = np.zeros((self.n_maps, 2), np.int64)
         took = np.zeros((self.n_maps, 2), np.int64)
